@@ -1,1 +1,6 @@
+//! softgrain: soft granular materials by the bonded particle model and the implicit
+//! material point method (Nezamabadi, Nguyen, Delenne & Radjai, Granular Matter 2017).
 
+pub mod cd;
+pub mod geom;
+pub mod rng;

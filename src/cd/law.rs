@@ -1,0 +1,88 @@
+//! Interaction laws: small local solvers called from the one generic NLGS loop
+//! (LMGC90-style). A law decides the impulse of one contact given the local velocity
+//! without its own contribution; it may also add an explicit smooth force (BPM cohesion).
+
+use serde::{Deserialize, Serialize};
+
+/// What the NLGS loop asks of a contact law.
+pub trait InteractionLaw: Send + Sync {
+    /// Coulomb friction coefficient (0 skips the tangential solve and the rotations it drives).
+    fn friction(&self) -> f64;
+
+    /// Range beyond contact (a gap, m) over which `smooth_force` acts; `a0` = r_i + r_j.
+    fn range(&self, _a0: f64) -> f64 {
+        0.0
+    }
+
+    /// Normal smooth force (N/m, positive repulsive) at gap `gap`, taken explicitly at the
+    /// start of the step (METHODS.md §1.9 option E).
+    fn smooth_force(&self, _gap: f64, _a0: f64) -> f64 {
+        0.0
+    }
+
+    /// Local solve of velocity-Signorini + Coulomb (restitution 0). `u_n` is the
+    /// gap-augmented normal velocity and `u_t` the sliding velocity the contact would have
+    /// without its own impulse; `w_nn`, `w_tt` the diagonal Delassus terms (W_tn = 0 for disks).
+    /// Returns (p_n, p_t).
+    fn solve(&self, u_n: f64, u_t: f64, w_nn: f64, w_tt: f64) -> (f64, f64) {
+        let p_n = (-u_n / w_nn).max(0.0);
+        let mu = self.friction();
+        if mu == 0.0 || p_n == 0.0 {
+            return (p_n, 0.0);
+        }
+        let bound = mu * p_n;
+        (p_n, (-u_t / w_tt).clamp(-bound, bound))
+    }
+}
+
+/// Unilateral contact with Coulomb friction `mu` and no cohesion: rigid disks, inter-grain
+/// contacts, walls.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Coulomb {
+    pub mu: f64,
+}
+
+impl InteractionLaw for Coulomb {
+    fn friction(&self) -> f64 {
+        self.mu
+    }
+}
+
+/// Which law acts on which pair: one law inside a group (grain), one between groups, and
+/// one per wall.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LawTable<L> {
+    pub laws: Vec<L>,
+}
+
+impl<L: InteractionLaw> LawTable<L> {
+    pub const SAME_GROUP: u16 = 0;
+    pub const OTHER_GROUP: u16 = 1;
+
+    /// `walls[w]` acts between the disks and wall `w`.
+    pub fn new(same_group: L, other_group: L, walls: Vec<L>) -> Self {
+        let mut laws = vec![same_group, other_group];
+        laws.extend(walls);
+        LawTable { laws }
+    }
+
+    pub fn wall_law(w: usize) -> u16 {
+        2 + w as u16
+    }
+
+    pub fn get(&self, id: u16) -> &L {
+        &self.laws[id as usize]
+    }
+
+    /// Largest range of any disk-disk law for pairs with a0 ≤ `a0_max`.
+    pub fn max_range(&self, a0_max: f64) -> f64 {
+        self.laws[..2]
+            .iter()
+            .map(|l| l.range(a0_max))
+            .fold(0.0, f64::max)
+    }
+
+    pub fn any_friction(&self) -> bool {
+        self.laws.iter().any(|l| l.friction() > 0.0)
+    }
+}

@@ -1,0 +1,27 @@
+//! Nonsmooth contact dynamics (Moreau-Jean) for rigid disks and straight walls in 2D.
+//!
+//! One time step (METHODS.md §1.1, θ-scheme):
+//! 1. smooth forces F = gravity + the laws' explicit forces (BPM attraction) at t⁻;
+//! 2. free velocity V_free = V⁻ + h M⁻¹ F;
+//! 3. geometry at q_TT = q⁻ + (1-θ) h V⁻ (normals and gaps frozen for the step);
+//! 4. impulses P by nonlinear Gauss-Seidel on velocity-Signorini + Coulomb with gap
+//!    anticipation (zero restitution), warm-started from the previous step;
+//! 5. q⁺ = q⁻ + h [(1-θ) V⁻ + θ V⁺].
+//!
+//! Geometry is explicit and velocities implicit, so the scheme is stable for any step; the
+//! step is chosen for accuracy (a small displacement per step keeps frozen normals right).
+//! The engine takes plain structs and reports progress through callbacks; it never reads
+//! files or prints.
+
+mod bodies;
+mod contact;
+mod detect;
+mod law;
+mod nlgs;
+mod scene;
+
+pub use bodies::Bodies;
+pub use contact::{Contact, Partner};
+pub use law::{Coulomb, InteractionLaw, LawTable};
+pub use nlgs::{NlgsParams, NlgsReport};
+pub use scene::{CdParams, Scene, StepReport};

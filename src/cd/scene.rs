@@ -1,0 +1,287 @@
+use super::detect::Neighbours;
+use super::nlgs::{self, NlgsParams, NlgsReport};
+use super::{Bodies, Contact, InteractionLaw, LawTable, Partner};
+use crate::geom::{V2, Wall};
+use crate::rng::Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Time-stepping settings of the contact-dynamics engine.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CdParams {
+    /// Time step h (s).
+    pub dt: f64,
+    /// θ of the Moreau-Jean scheme, in [1/2, 1]; 1 closes contacts exactly (METHODS.md §1.4).
+    pub theta: f64,
+    /// Gravity vector (m/s²).
+    pub gravity: V2,
+    /// Alert distance (m): pairs closer than this enter the contact solve.
+    pub alert: f64,
+    /// Verlet skin (m): the pair list is rebuilt when a disk has moved skin/2.
+    pub skin: f64,
+    pub nlgs: NlgsParams,
+}
+
+/// A numerical fault the engine detected; the state that produced it is not returned as good.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum CdError {
+    #[error("step {step}: velocity of disk {body} is not finite")]
+    NonFinite { step: u64, body: usize },
+}
+
+/// What one step did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepReport {
+    pub nlgs: NlgsReport,
+    /// Contacts that entered the solve.
+    pub contacts: usize,
+}
+
+/// Disks, walls and laws, with the state carried from step to step (time, the previous
+/// step's impulses for the warm start, the shuffling generator). Serialising a scene and
+/// loading it back continues the run bit for bit: the pair list is rebuilt on load, and
+/// contacts are ordered by their key, not by the list.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Scene<L> {
+    pub bodies: Bodies,
+    pub walls: Vec<Wall>,
+    pub laws: LawTable<L>,
+    pub params: CdParams,
+    pub time: f64,
+    pub steps: u64,
+    /// The last step's contacts with their impulses, sorted by (i, partner).
+    pub contacts: Vec<Contact>,
+    /// Force each wall exerted on the disks over the last step (N/m).
+    pub wall_force: Vec<V2>,
+    rng: Rng,
+    #[serde(skip)]
+    neighbours: Neighbours,
+    #[serde(skip)]
+    order: Vec<u32>,
+}
+
+impl<L: InteractionLaw> Scene<L> {
+    pub fn new(
+        bodies: Bodies,
+        walls: Vec<Wall>,
+        laws: LawTable<L>,
+        params: CdParams,
+        seed: u64,
+    ) -> Self {
+        let n_walls = walls.len();
+        Scene {
+            bodies,
+            walls,
+            laws,
+            params,
+            time: 0.0,
+            steps: 0,
+            contacts: Vec::new(),
+            wall_force: vec![V2::zeros(); n_walls],
+            rng: Rng::stream(seed, "cd-nlgs-order"),
+            neighbours: Neighbours::default(),
+            order: Vec::new(),
+        }
+    }
+
+    /// How many times the pair list has been rebuilt since this scene was created or loaded.
+    pub fn list_rebuilds(&self) -> u64 {
+        self.neighbours.rebuilds
+    }
+
+    /// Advances one time step.
+    pub fn step(&mut self) -> Result<StepReport, CdError> {
+        let h = self.params.dt;
+        let theta = self.params.theta;
+        let pred = (1.0 - theta) * h;
+        // 3. Geometry at q_TT = q⁻ + (1-θ) h V⁻, frozen for the step.
+        let pos_tt: Vec<V2> = if pred == 0.0 {
+            self.bodies.pos.clone()
+        } else {
+            (self.bodies.pos.iter().zip(&self.bodies.vel))
+                .map(|(p, v)| p + pred * v)
+                .collect()
+        };
+        let r_max = self.bodies.max_radius();
+        let range = self.params.alert + self.laws.max_range(2.0 * r_max);
+        self.neighbours
+            .update(&pos_tt, &self.bodies.radius, range, self.params.skin);
+        let mut contacts = self.detect(&pos_tt, pred);
+        contacts.sort_unstable_by_key(Contact::key);
+        warm_start(&mut contacts, &self.contacts);
+
+        // 1-2. Smooth forces (gravity, explicit law forces) and free velocities.
+        let v_minus = (theta < 1.0).then(|| (self.bodies.vel.clone(), self.bodies.omega.clone()));
+        let g = self.params.gravity;
+        for v in self.bodies.vel.iter_mut() {
+            *v += h * g;
+        }
+        for c in &contacts {
+            let a0 = self.a0(c);
+            let f = self.laws.get(c.law).smooth_force(c.gap, a0);
+            if f != 0.0 {
+                let i = c.i as usize;
+                self.bodies.vel[i] += h * self.bodies.inv_mass[i] * f * c.n;
+                if let Partner::Body(j) = c.j {
+                    let j = j as usize;
+                    self.bodies.vel[j] -= h * self.bodies.inv_mass[j] * f * c.n;
+                }
+            }
+        }
+
+        // 4. Impulses: only contacts within the alert distance enter the solve.
+        nlgs::apply_all(&contacts, &mut self.bodies);
+        self.order.clear();
+        let alert = self.params.alert;
+        self.order
+            .extend((0..contacts.len() as u32).filter(|&k| contacts[k as usize].gap <= alert));
+        let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
+        let data = nlgs::StepData {
+            laws: &self.laws,
+            wall_vel: &wall_vel,
+            gap_rate: 1.0 / (theta * h),
+        };
+        let report = nlgs::solve(
+            &mut contacts,
+            &mut self.bodies,
+            &data,
+            &self.params.nlgs,
+            &mut self.order,
+            &mut self.rng,
+        );
+
+        // 5. q⁺ = q⁻ + h [(1-θ) V⁻ + θ V⁺].
+        let b = &mut self.bodies;
+        for i in 0..b.len() {
+            let (v, w) = match &v_minus {
+                Some((v0, w0)) => (
+                    (1.0 - theta) * v0[i] + theta * b.vel[i],
+                    (1.0 - theta) * w0[i] + theta * b.omega[i],
+                ),
+                None => (b.vel[i], b.omega[i]),
+            };
+            if !(v.x.is_finite() && v.y.is_finite() && w.is_finite()) {
+                return Err(CdError::NonFinite {
+                    step: self.steps,
+                    body: i,
+                });
+            }
+            b.pos[i] += h * v;
+            b.angle[i] += h * w;
+        }
+        for w in self.walls.iter_mut() {
+            let d = h * w.velocity;
+            w.translate(d);
+        }
+        self.wall_force.iter_mut().for_each(|f| *f = V2::zeros());
+        for c in &contacts {
+            if let Partner::Wall(w) = c.j {
+                self.wall_force[w as usize] += (c.p_n * c.n + c.p_t * crate::geom::perp(c.n)) / h;
+            }
+        }
+        self.time += h;
+        self.steps += 1;
+        let n_solved = self.order.len();
+        self.contacts = contacts;
+        Ok(StepReport {
+            nlgs: report,
+            contacts: n_solved,
+        })
+    }
+
+    fn a0(&self, c: &Contact) -> f64 {
+        match c.j {
+            Partner::Body(j) => self.bodies.radius[c.i as usize] + self.bodies.radius[j as usize],
+            Partner::Wall(_) => self.bodies.radius[c.i as usize],
+        }
+    }
+
+    /// Narrow phase: disk pairs from the Verlet list and disk-wall pairs within range.
+    fn detect(&self, pos: &[V2], pred: f64) -> Vec<Contact> {
+        let b = &self.bodies;
+        let laws = &self.laws;
+        let alert = self.params.alert;
+        let pairs = self.neighbours.pairs.par_iter().filter_map(|&(i, j)| {
+            let (iu, ju) = (i as usize, j as usize);
+            let d = pos[iu] - pos[ju];
+            let dist = d.norm();
+            let a0 = b.radius[iu] + b.radius[ju];
+            let gap = dist - a0;
+            let law = if b.group[iu] == b.group[ju] {
+                LawTable::<L>::SAME_GROUP
+            } else {
+                LawTable::<L>::OTHER_GROUP
+            };
+            if gap > alert.max(laws.get(law).range(a0)) {
+                return None;
+            }
+            let (mi, mj) = (b.inv_mass[iu], b.inv_mass[ju]);
+            let (ri, rj) = (b.radius[iu], b.radius[ju]);
+            Some(Contact {
+                i,
+                j: Partner::Body(j),
+                law,
+                n: d / dist,
+                gap,
+                w_nn: mi + mj,
+                w_tt: mi + mj + ri * ri * b.inv_inertia[iu] + rj * rj * b.inv_inertia[ju],
+                p_n: 0.0,
+                p_t: 0.0,
+            })
+        });
+        let walls = (0..b.len()).into_par_iter().flat_map_iter(|i| {
+            self.walls.iter().enumerate().filter_map(move |(w, wall)| {
+                let (gap, n) = wall.gap(pred * wall.velocity, pos[i], b.radius[i])?;
+                (gap <= alert).then(|| {
+                    let (mi, ri) = (b.inv_mass[i], b.radius[i]);
+                    Contact {
+                        i: i as u32,
+                        j: Partner::Wall(w as u32),
+                        law: LawTable::<L>::wall_law(w),
+                        n,
+                        gap,
+                        w_nn: mi,
+                        w_tt: mi + ri * ri * b.inv_inertia[i],
+                        p_n: 0.0,
+                        p_t: 0.0,
+                    }
+                })
+            })
+        });
+        pairs.chain(walls).collect()
+    }
+
+    /// Current gap of each stored contact (after the step's position update).
+    pub fn current_gaps(&self) -> Vec<f64> {
+        let b = &self.bodies;
+        self.contacts
+            .iter()
+            .map(|c| {
+                let i = c.i as usize;
+                match c.j {
+                    Partner::Body(j) => {
+                        let j = j as usize;
+                        (b.pos[i] - b.pos[j]).norm() - b.radius[i] - b.radius[j]
+                    }
+                    Partner::Wall(w) => self.walls[w as usize]
+                        .gap(V2::zeros(), b.pos[i], b.radius[i])
+                        .map_or(f64::INFINITY, |(g, _)| g),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Copies each previous impulse onto the new contact with the same key (both lists sorted).
+fn warm_start(new: &mut [Contact], old: &[Contact]) {
+    let mut k = 0;
+    for c in new.iter_mut() {
+        while k < old.len() && old[k].key() < c.key() {
+            k += 1;
+        }
+        if k < old.len() && old[k].key() == c.key() {
+            c.p_n = old[k].p_n;
+            c.p_t = old[k].p_t;
+        }
+    }
+}
