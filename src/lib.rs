@@ -2,5 +2,10 @@
 //! material point method (Nezamabadi, Nguyen, Delenne & Radjai, Granular Matter 2017).
 
 pub mod cd;
+pub mod config;
 pub mod geom;
+pub mod io;
+pub mod packing;
+pub mod pipeline;
 pub mod rng;
+pub mod stages;

@@ -1,1 +1,146 @@
-fn main() {}
+//! The `softgrain` command: parse arguments, call the library, map errors to exit codes
+//! (0 success, 2 wrong input, 1 a run that failed).
+
+use clap::{Parser, Subcommand};
+use softgrain::config;
+use softgrain::pipeline::{self, RunError, RunOptions, Stage};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "softgrain",
+    version,
+    about = "Soft granular materials: bonded particles and implicit MPM"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run or inspect a pipeline.
+    Pipeline {
+        #[command(subcommand)]
+        action: PipelineAction,
+    },
+    /// Check a pipeline file and print it with every default filled in.
+    Validate {
+        file: PathBuf,
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
+}
+
+#[derive(Subcommand)]
+enum PipelineAction {
+    /// Run every stage whose checkpoint is missing.
+    Run {
+        file: PathBuf,
+        #[arg(long, default_value = "runs")]
+        out: PathBuf,
+        /// Override a value by its dotted path, e.g. --set prepare.grains=50.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Recompute this stage and everything after it.
+        #[arg(long, value_parser = parse_stage)]
+        from: Option<Stage>,
+        /// Stop after this stage.
+        #[arg(long, value_parser = parse_stage)]
+        until: Option<Stage>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// No progress bars or per-stage lines.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Print cached / stale / missing for every stage and case; computes nothing.
+    Status {
+        file: PathBuf,
+        #[arg(long, default_value = "runs")]
+        out: PathBuf,
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
+}
+
+fn parse_stage(s: &str) -> Result<Stage, String> {
+    Stage::parse(s)
+        .ok_or_else(|| format!("unknown stage `{s}` (prepare, discretise, compact, analyse)"))
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Validate { file, set } => match config::load(&file, &set) {
+            Ok(loaded) => {
+                println!("{}: valid", file.display());
+                match serde_saphyr::to_string(&loaded.pipeline) {
+                    Ok(text) => print!("{text}"),
+                    Err(e) => eprintln!("cannot print the pipeline: {e}"),
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => input_error(&e),
+        },
+        Command::Pipeline { action } => match action {
+            PipelineAction::Status { file, out, set } => match config::load(&file, &set) {
+                Ok(loaded) => {
+                    for (node, word) in pipeline::status(&loaded, &out) {
+                        println!(
+                            "{:<10} {:<18} {}  {word}",
+                            node.stage.name(),
+                            node.case,
+                            node.short()
+                        );
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => input_error(&e),
+            },
+            PipelineAction::Run {
+                file,
+                out,
+                set,
+                from,
+                until,
+                jobs,
+                quiet,
+            } => {
+                if let Some(n) = jobs
+                    && let Err(e) = rayon::ThreadPoolBuilder::new()
+                        .num_threads(n)
+                        .build_global()
+                {
+                    eprintln!("--jobs {n}: {e}");
+                    return ExitCode::from(2);
+                }
+                let loaded = match config::load(&file, &set) {
+                    Ok(l) => l,
+                    Err(e) => return input_error(&e),
+                };
+                let opts = RunOptions {
+                    out,
+                    from,
+                    until,
+                    quiet,
+                };
+                match pipeline::run(&loaded, &opts) {
+                    Ok(_) => ExitCode::SUCCESS,
+                    Err(RunError::Input(e)) => input_error(&e),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        ExitCode::from(1)
+                    }
+                }
+            }
+        },
+    }
+}
+
+fn input_error(e: &config::InputError) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(2)
+}

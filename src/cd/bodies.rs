@@ -56,6 +56,13 @@ impl Bodies {
             .sum()
     }
 
+    /// Kinetic energy of the centres' motion only (J/m).
+    pub fn translational_energy(&self) -> f64 {
+        (0..self.len())
+            .map(|i| 0.5 * self.vel[i].norm_squared() / self.inv_mass[i])
+            .sum()
+    }
+
     pub fn max_radius(&self) -> f64 {
         self.radius.iter().cloned().fold(0.0, f64::max)
     }

@@ -15,7 +15,8 @@ pub struct CdParams {
     pub theta: f64,
     /// Gravity vector (m/s²).
     pub gravity: V2,
-    /// Alert distance (m): pairs closer than this enter the contact solve.
+    /// Alert distance (m): pairs closer than this enter the contact solve. Each step uses at
+    /// least twice the largest approach possible within the step.
     pub alert: f64,
     /// Verlet skin (m): the pair list is rebuilt when a disk has moved skin/2.
     pub skin: f64,
@@ -102,11 +103,26 @@ impl<L: InteractionLaw> Scene<L> {
                 .map(|(p, v)| p + pred * v)
                 .collect()
         };
+        // Every pair that can close within the step must be seen: the alert distance grows
+        // to twice the largest approach in one step (METHODS.md §1.7).
+        let v_max = self
+            .bodies
+            .vel
+            .par_iter()
+            .map(|v| v.norm())
+            .reduce(|| 0.0, f64::max);
+        let w_max = self
+            .walls
+            .iter()
+            .map(|w| w.velocity.norm())
+            .fold(0.0, f64::max);
+        let approach = h * (2.0 * v_max.max(w_max) + h * self.params.gravity.norm());
+        let alert = self.params.alert.max(2.0 * approach);
         let r_max = self.bodies.max_radius();
-        let range = self.params.alert + self.laws.max_range(2.0 * r_max);
+        let range = alert + self.laws.max_range(2.0 * r_max);
         self.neighbours
             .update(&pos_tt, &self.bodies.radius, range, self.params.skin);
-        let mut contacts = self.detect(&pos_tt, pred);
+        let mut contacts = self.detect(&pos_tt, pred, alert);
         contacts.sort_unstable_by_key(Contact::key);
         warm_start(&mut contacts, &self.contacts);
 
@@ -132,7 +148,6 @@ impl<L: InteractionLaw> Scene<L> {
         // 4. Impulses: only contacts within the alert distance enter the solve.
         nlgs::apply_all(&contacts, &mut self.bodies);
         self.order.clear();
-        let alert = self.params.alert;
         self.order
             .extend((0..contacts.len() as u32).filter(|&k| contacts[k as usize].gap <= alert));
         let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
@@ -197,10 +212,9 @@ impl<L: InteractionLaw> Scene<L> {
     }
 
     /// Narrow phase: disk pairs from the Verlet list and disk-wall pairs within range.
-    fn detect(&self, pos: &[V2], pred: f64) -> Vec<Contact> {
+    fn detect(&self, pos: &[V2], pred: f64, alert: f64) -> Vec<Contact> {
         let b = &self.bodies;
         let laws = &self.laws;
-        let alert = self.params.alert;
         let pairs = self.neighbours.pairs.par_iter().filter_map(|&(i, j)| {
             let (iu, ju) = (i as usize, j as usize);
             let d = pos[iu] - pos[ju];

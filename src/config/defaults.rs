@@ -1,0 +1,52 @@
+//! Every default of the pipeline files, with its unit and where it comes from. The YAML
+//! keys that are left out take these values; `softgrain validate` prints the result.
+
+/// Seed of every random choice.
+pub const SEED: u64 = 1;
+
+// ---- prepare (rigid-disk deposit) ----
+/// Gravity during the deposit (m/s²).
+pub const GRAVITY: f64 = 9.81;
+/// Disk density (kg/m³); the paper's grain density (section 3).
+pub const DENSITY: f64 = 990.0;
+/// Disk-disk friction of the deposit; the paper does not give its protocol (METHODS.md §7).
+pub const DEPOSIT_FRICTION: f64 = 0.3;
+/// Wall friction: frictionless walls, as in the paper's compaction (section 4).
+pub const WALL_FRICTION: f64 = 0.0;
+/// Rest criterion: translational kinetic energy over Σ m g <d> (dimensionless).
+pub const REST_TOLERANCE: f64 = 1e-9;
+/// Give up a deposit that is not at rest after this much simulated time (s).
+pub const MAX_TIME: f64 = 20.0;
+/// Deposit time step in units of sqrt(<d>/g): a disk falling one box height moves a few
+/// hundredths of a diameter per step (METHODS.md §6).
+pub const DEPOSIT_STEP: f64 = 0.02;
+/// Packing fraction assumed when the box width is chosen so that the deposit is about as
+/// high as wide (dense random disk packings: 0.80-0.84).
+pub const SQUARE_BOX_PHI: f64 = 0.82;
+
+// ---- discretise ----
+/// γ of Eq. (1): the Lennard-Jones value the paper uses.
+pub const BPM_GAMMA: f64 = 7.0;
+/// Cut-off of Eq. (1) in units of a0: the paper's δ = a0.
+pub const BPM_CUTOFF: f64 = 1.0;
+
+// ---- contact-dynamics solver ----
+/// θ of the Moreau-Jean scheme: 1 closes contacts exactly (METHODS.md §1.1).
+pub const THETA: f64 = 1.0;
+/// NLGS tolerance of the QM/16 norms (LMGC90 examples, METHODS.md §1.6).
+pub const NLGS_TOLERANCE: f64 = 1.666e-4;
+/// Sweeps between convergence checks.
+pub const NLGS_CHECK_EVERY: u32 = 10;
+/// Sweeps after which a step is reported unconverged.
+pub const NLGS_MAX_ITERATIONS: u32 = 5000;
+/// Alert distance in units of the smallest disk diameter (METHODS.md §1.7: 0.05 d_min
+/// suffices quasi-statically).
+pub const ALERT: f64 = 0.05;
+/// Verlet skin in units of the smallest disk diameter.
+pub const SKIN: f64 = 0.2;
+
+// ---- output ----
+/// Steps between VTK frames and recorded rows.
+pub const OUTPUT_EVERY: u64 = 100;
+/// Steps between resumable snapshots of a long stage.
+pub const SNAPSHOT_EVERY: u64 = 2000;

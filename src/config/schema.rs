@@ -1,0 +1,295 @@
+//! The pipeline file: one struct per YAML section, unknown keys rejected, SI units.
+
+use super::defaults as d;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pipeline {
+    /// Output folder name under `--out`.
+    pub name: String,
+    #[serde(default = "seed")]
+    pub seed: u64,
+    pub prepare: Prepare,
+    #[serde(default)]
+    pub solver: Solver,
+    #[serde(default)]
+    pub output: Output,
+    #[serde(default)]
+    pub discretise: Option<Discretise>,
+    #[serde(default)]
+    pub compact: Option<Compact>,
+    #[serde(default)]
+    pub analyse: Option<Analyse>,
+}
+
+fn seed() -> u64 {
+    d::SEED
+}
+
+/// How the rigid disks of the prepare stage are laid out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Layout {
+    /// `grains` disks deposited under gravity in a box.
+    Packing,
+    /// One grain of `radius` (single-grain tests).
+    Single,
+    /// The disks and walls listed under `bodies` and `walls`, run for `duration`.
+    Explicit,
+}
+
+pub use crate::packing::Distribution;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Prepare {
+    #[serde(default = "layout")]
+    pub layout: Layout,
+    /// Packing: number of grains.
+    #[serde(default)]
+    pub grains: Option<usize>,
+    /// Packing: [min, max] grain diameter (m).
+    #[serde(default)]
+    pub diameter: Option<[f64; 2]>,
+    #[serde(default = "distribution")]
+    pub distribution: Distribution,
+    /// Single: grain radius (m).
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// Packing: box width (m); by default the deposit comes out about as high as wide.
+    #[serde(default)]
+    pub box_width: Option<f64>,
+    /// Disk-disk friction coefficient.
+    #[serde(default = "deposit_friction")]
+    pub friction: f64,
+    /// Disk-wall friction coefficient.
+    #[serde(default = "wall_friction")]
+    pub wall_friction: f64,
+    /// Gravity magnitude (m/s²), acting along -y.
+    #[serde(default = "gravity")]
+    pub gravity: f64,
+    /// Disk density (kg/m³).
+    #[serde(default = "density")]
+    pub density: f64,
+    /// Time step (s); by default 0.02 sqrt(<d>/g).
+    #[serde(default)]
+    pub time_step: Option<f64>,
+    /// Packing: at rest when the translational kinetic energy / Σ m g <d> falls below this.
+    #[serde(default = "rest_tolerance")]
+    pub rest_tolerance: f64,
+    /// Packing: the deposit fails if not at rest by this time (s).
+    #[serde(default = "max_time")]
+    pub max_time: f64,
+    /// Explicit: angle (degrees) by which the listed scene is tilted; gravity stays along -y.
+    #[serde(default)]
+    pub incline_angle: f64,
+    /// Explicit: the disks.
+    #[serde(default)]
+    pub bodies: Vec<DiskSpec>,
+    /// Explicit: the walls.
+    #[serde(default)]
+    pub walls: Vec<WallSpec>,
+    /// Explicit: simulated time (s).
+    #[serde(default)]
+    pub duration: Option<f64>,
+}
+
+fn layout() -> Layout {
+    Layout::Packing
+}
+fn distribution() -> Distribution {
+    Distribution::EqualAreaPerSize
+}
+fn deposit_friction() -> f64 {
+    d::DEPOSIT_FRICTION
+}
+fn wall_friction() -> f64 {
+    d::WALL_FRICTION
+}
+fn gravity() -> f64 {
+    d::GRAVITY
+}
+fn density() -> f64 {
+    d::DENSITY
+}
+fn rest_tolerance() -> f64 {
+    d::REST_TOLERANCE
+}
+fn max_time() -> f64 {
+    d::MAX_TIME
+}
+
+/// A disk of the explicit layout.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiskSpec {
+    /// Centre (m).
+    pub position: [f64; 2],
+    /// Radius (m).
+    pub radius: f64,
+    /// Initial velocity (m/s).
+    #[serde(default)]
+    pub velocity: [f64; 2],
+}
+
+/// A wall segment of the explicit layout: grains on the left of `from` -> `to`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallSpec {
+    pub from: [f64; 2],
+    pub to: [f64; 2],
+    /// Imposed velocity (m/s).
+    #[serde(default)]
+    pub velocity: [f64; 2],
+}
+
+/// Contact-dynamics solver settings, shared by every CD stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Solver {
+    /// θ of the Moreau-Jean scheme, in [0.5, 1].
+    pub theta: f64,
+    /// NLGS tolerance (QM/16 norms).
+    pub tolerance: f64,
+    /// Sweeps between convergence checks.
+    pub check_every: u32,
+    /// Maximum sweeps per step.
+    pub max_iterations: u32,
+    /// Alert distance in units of the smallest diameter.
+    pub alert: f64,
+    /// Verlet skin in units of the smallest diameter.
+    pub skin: f64,
+}
+
+impl Default for Solver {
+    fn default() -> Self {
+        Solver {
+            theta: d::THETA,
+            tolerance: d::NLGS_TOLERANCE,
+            check_every: d::NLGS_CHECK_EVERY,
+            max_iterations: d::NLGS_MAX_ITERATIONS,
+            alert: d::ALERT,
+            skin: d::SKIN,
+        }
+    }
+}
+
+/// What the stages write besides checkpoints.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Output {
+    /// Steps between VTK frames and recorded rows (0: final frame only).
+    pub every: u64,
+    /// Steps between resumable snapshots of long stages (0: none).
+    pub snapshot_every: u64,
+    /// Write VTK frames at all.
+    pub vtk: bool,
+}
+
+impl Default for Output {
+    fn default() -> Self {
+        Output {
+            every: d::OUTPUT_EVERY,
+            snapshot_every: d::SNAPSHOT_EVERY,
+            vtk: true,
+        }
+    }
+}
+
+/// Method of the discretise stage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    Bpm,
+    Mpm,
+}
+
+/// Turning rigid disks into soft grains (BPM aggregates or MPM points).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Discretise {
+    /// One case per method.
+    pub method: OneOrMany<Method>,
+    #[serde(default)]
+    pub bpm: Option<Bpm>,
+    #[serde(default)]
+    pub mpm: Option<Mpm>,
+}
+
+/// Bonded particle model: primary disks and the attraction of Eq. (1).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bpm {
+    /// [min, max] primary-particle diameter (m), each particle's area uniform; a list of
+    /// pairs makes one case each (paper Fig. 7).
+    pub particle_diameter: OneOrMany<[f64; 2]>,
+    /// F0 of Eq. (1) (N/m).
+    pub f0: f64,
+    /// γ of Eq. (1).
+    #[serde(default = "gamma")]
+    pub gamma: f64,
+    /// Cut-off gap in units of a0 = r_i + r_j.
+    #[serde(default = "cutoff")]
+    pub cutoff: f64,
+}
+
+fn gamma() -> f64 {
+    d::BPM_GAMMA
+}
+fn cutoff() -> f64 {
+    d::BPM_CUTOFF
+}
+
+/// Material point method: linear elastic grains in plane strain.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mpm {
+    /// Young's modulus (Pa).
+    pub young: f64,
+    /// Poisson's ratio.
+    pub poisson: f64,
+    /// Density (kg/m³).
+    pub density: f64,
+    /// Material-point spacing over grain radius, Δr/R (paper: 0.029).
+    pub resolution: f64,
+}
+
+/// Compression by a moving top wall.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Compact {
+    /// Top wall speed (m/s).
+    pub wall_velocity: f64,
+    /// Cumulative strain ln(h0/h) at which to stop.
+    pub final_strain: f64,
+    /// Inter-grain friction: one case per value.
+    #[serde(default = "no_friction")]
+    pub friction: OneOrMany<f64>,
+}
+
+fn no_friction() -> OneOrMany<f64> {
+    OneOrMany::One(0.0)
+}
+
+/// Post-processing of the compaction and single-grain runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Analyse {}
+
+/// A key that takes one value or a list of values (one case each).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrMany<T> {
+    One(T),
+    Many(Vec<T>),
+}
+
+impl<T: Clone> OneOrMany<T> {
+    pub fn to_vec(&self) -> Vec<T> {
+        match self {
+            OneOrMany::One(x) => vec![x.clone()],
+            OneOrMany::Many(v) => v.clone(),
+        }
+    }
+}

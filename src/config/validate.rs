@@ -1,0 +1,195 @@
+//! Range checks that the types cannot express. The first failure is returned as
+//! (dotted key, value, what is allowed).
+
+use super::schema::*;
+
+type Failure = (String, String, String);
+
+fn fail(key: &str, value: impl std::fmt::Debug, allowed: &str) -> Result<(), Failure> {
+    Err((key.to_string(), format!("{value:?}"), allowed.to_string()))
+}
+
+fn positive(key: &str, v: f64) -> Result<(), Failure> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        fail(key, v, "must be a finite number > 0")
+    }
+}
+
+fn non_negative(key: &str, v: f64) -> Result<(), Failure> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        fail(key, v, "must be a finite number >= 0")
+    }
+}
+
+fn range(key: &str, r: [f64; 2]) -> Result<(), Failure> {
+    if r.iter().all(|x| x.is_finite() && *x > 0.0) && r[0] <= r[1] {
+        Ok(())
+    } else {
+        fail(key, r, "must be [min, max] with 0 < min <= max")
+    }
+}
+
+fn required<T>(key: &str, v: &Option<T>, layout: &str) -> Result<(), Failure> {
+    if v.is_some() {
+        Ok(())
+    } else {
+        Err((
+            key.into(),
+            "missing".into(),
+            format!("required by layout {layout}"),
+        ))
+    }
+}
+
+pub fn check(p: &Pipeline) -> Result<(), Failure> {
+    if p.name.is_empty() || p.name.contains(['/', '\\']) || p.name.starts_with('.') {
+        fail(
+            "name",
+            &p.name,
+            "must be a non-empty folder name without / or a leading dot",
+        )?;
+    }
+    prepare(&p.prepare)?;
+    solver(&p.solver)?;
+    if let Some(d) = &p.discretise {
+        discretise(d)?;
+    }
+    if let Some(c) = &p.compact {
+        positive("compact.wall_velocity", c.wall_velocity)?;
+        if !(c.final_strain > 0.0 && c.final_strain < 1.0) {
+            fail("compact.final_strain", c.final_strain, "must be in (0, 1)")?;
+        }
+        for mu in c.friction.to_vec() {
+            non_negative("compact.friction", mu)?;
+        }
+    }
+    Ok(())
+}
+
+fn prepare(p: &Prepare) -> Result<(), Failure> {
+    non_negative("prepare.friction", p.friction)?;
+    non_negative("prepare.wall_friction", p.wall_friction)?;
+    non_negative("prepare.gravity", p.gravity)?;
+    positive("prepare.density", p.density)?;
+    positive("prepare.rest_tolerance", p.rest_tolerance)?;
+    positive("prepare.max_time", p.max_time)?;
+    if let Some(dt) = p.time_step {
+        positive("prepare.time_step", dt)?;
+    }
+    match p.layout {
+        Layout::Packing => {
+            required("prepare.grains", &p.grains, "packing")?;
+            required("prepare.diameter", &p.diameter, "packing")?;
+            let n = p.grains.unwrap_or(0);
+            if !(1..=1_000_000).contains(&n) {
+                fail("prepare.grains", n, "must be between 1 and 1000000")?;
+            }
+            let dia = p.diameter.unwrap_or([0.0; 2]);
+            range("prepare.diameter", dia)?;
+            if let Some(w) = p.box_width {
+                positive("prepare.box_width", w)?;
+                if w < dia[1] {
+                    fail(
+                        "prepare.box_width",
+                        w,
+                        "must be wider than the largest diameter",
+                    )?;
+                }
+            }
+            if p.gravity == 0.0 {
+                fail("prepare.gravity", p.gravity, "must be > 0 for a deposit")?;
+            }
+        }
+        Layout::Single => {
+            required("prepare.radius", &p.radius, "single")?;
+            positive("prepare.radius", p.radius.unwrap_or(0.0))?;
+        }
+        Layout::Explicit => {
+            if p.bodies.is_empty() {
+                fail(
+                    "prepare.bodies",
+                    "[]",
+                    "the explicit layout needs at least one disk",
+                )?;
+            }
+            for (k, b) in p.bodies.iter().enumerate() {
+                positive(&format!("prepare.bodies.{k}.radius"), b.radius)?;
+            }
+            for (k, w) in p.walls.iter().enumerate() {
+                if w.from == w.to {
+                    fail(
+                        &format!("prepare.walls.{k}.to"),
+                        w.to,
+                        "must differ from `from`",
+                    )?;
+                }
+            }
+            required("prepare.duration", &p.duration, "explicit")?;
+            positive("prepare.duration", p.duration.unwrap_or(0.0))?;
+            if p.incline_angle.is_nan() || p.incline_angle.abs() >= 90.0 {
+                fail(
+                    "prepare.incline_angle",
+                    p.incline_angle,
+                    "must be in (-90, 90) degrees",
+                )?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn solver(s: &Solver) -> Result<(), Failure> {
+    if !(0.5..=1.0).contains(&s.theta) {
+        fail("solver.theta", s.theta, "must be in [0.5, 1]")?;
+    }
+    positive("solver.tolerance", s.tolerance)?;
+    if s.check_every == 0 {
+        fail("solver.check_every", s.check_every, "must be >= 1")?;
+    }
+    if s.max_iterations < s.check_every {
+        fail(
+            "solver.max_iterations",
+            s.max_iterations,
+            "must be >= solver.check_every",
+        )?;
+    }
+    positive("solver.alert", s.alert)?;
+    non_negative("solver.skin", s.skin)
+}
+
+fn discretise(d: &Discretise) -> Result<(), Failure> {
+    let methods = d.method.to_vec();
+    if methods.contains(&Method::Bpm) {
+        let Some(b) = &d.bpm else {
+            return fail("discretise.bpm", "missing", "required by method bpm");
+        };
+        for r in b.particle_diameter.to_vec() {
+            range("discretise.bpm.particle_diameter", r)?;
+        }
+        positive("discretise.bpm.f0", b.f0)?;
+        positive("discretise.bpm.gamma", b.gamma)?;
+        positive("discretise.bpm.cutoff", b.cutoff)?;
+    }
+    if methods.contains(&Method::Mpm) {
+        let Some(m) = &d.mpm else {
+            return fail("discretise.mpm", "missing", "required by method mpm");
+        };
+        positive("discretise.mpm.young", m.young)?;
+        if !(m.poisson > -1.0 && m.poisson < 0.5) {
+            fail("discretise.mpm.poisson", m.poisson, "must be in (-1, 0.5)")?;
+        }
+        positive("discretise.mpm.density", m.density)?;
+        if !(m.resolution > 0.0 && m.resolution <= 0.5) {
+            fail(
+                "discretise.mpm.resolution",
+                m.resolution,
+                "must be in (0, 0.5]",
+            )?;
+        }
+    }
+    Ok(())
+}

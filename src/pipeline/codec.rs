@@ -1,0 +1,26 @@
+//! The one place that turns states into bytes and back (bincode 2.0.1 with serde, standard
+//! configuration). To change the codec (bincode is unmaintained; postcard is the fallback),
+//! change these two functions and bump `FORMAT_VERSION`.
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+/// Version of the checkpoint layout and of every stage's state types. Bumping it changes
+/// every node's hash, so old checkpoints are recomputed, never misread.
+pub const FORMAT_VERSION: u32 = 1;
+
+pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
+    bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())
+}
+
+/// Decodes `bytes`, which must hold exactly one value. A length limit guards against a
+/// corrupt length prefix asking for a huge allocation.
+pub fn decode<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
+    let config = bincode::config::standard().with_limit::<{ 1 << 34 }>();
+    let (value, used) =
+        bincode::serde::decode_from_slice(bytes, config).map_err(|e| e.to_string())?;
+    if used != bytes.len() {
+        return Err(format!("{} trailing bytes", bytes.len() - used));
+    }
+    Ok(value)
+}

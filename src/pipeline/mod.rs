@@ -1,0 +1,240 @@
+//! Running a pipeline: plan the stage graph, skip nodes whose checkpoint exists, run the
+//! others, save their checkpoints. Only this module reads or writes checkpoints.
+
+pub mod codec;
+mod plan;
+mod progress;
+pub mod store;
+
+pub use plan::{Node, Stage, plan};
+pub use progress::Progress;
+
+use crate::config::{InputError, Loaded};
+use crate::stages::{self, StageState};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How a run failed; the CLI maps `Input` to exit status 2 and the rest to 1.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("{0}")]
+    Input(#[from] Box<InputError>),
+    #[error("{stage} [{case}]: {cause}")]
+    Stage {
+        stage: &'static str,
+        case: String,
+        cause: String,
+    },
+    #[error("{path}: {cause}")]
+    Io {
+        path: PathBuf,
+        cause: std::io::Error,
+    },
+}
+
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    pub out: PathBuf,
+    /// Recompute this stage and everything after it.
+    pub from: Option<Stage>,
+    /// Stop after this stage.
+    pub until: Option<Stage>,
+    pub quiet: bool,
+}
+
+/// What happened to one node.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    Cached,
+    Computed { seconds: f64, summary: String },
+}
+
+/// Where a pipeline's files go: DIR/<name>/.
+pub fn run_dir(out: &Path, loaded: &Loaded) -> PathBuf {
+    out.join(&loaded.pipeline.name)
+}
+
+/// The per-node context a stage runs in: its output folder, snapshots, progress.
+pub struct StageCtx {
+    pub dir: PathBuf,
+    snapshot: PathBuf,
+    pub quiet: bool,
+}
+
+impl StageCtx {
+    /// The last snapshot of this node, if one exists and verifies; a bad one is ignored
+    /// (reported) and the stage starts from zero.
+    pub fn load_snapshot<T: DeserializeOwned>(&self) -> Option<T> {
+        match store::load(&self.snapshot) {
+            Ok(Some(Ok(s))) => Some(s),
+            Ok(Some(Err(e))) => {
+                eprintln!("  snapshot {} not used: {e}", self.snapshot.display());
+                None
+            }
+            _ => None,
+        }
+    }
+
+    pub fn save_snapshot<T: Serialize>(&self, state: &T) -> std::io::Result<()> {
+        store::save(&self.snapshot, state)
+    }
+
+    pub fn progress(&self, label: &str, total: u64) -> Progress {
+        Progress::new(label, total, self.quiet)
+    }
+
+    /// Writes a whole output file atomically.
+    pub fn write(&self, name: &str, bytes: &[u8]) -> std::io::Result<()> {
+        store::write_atomic(&self.dir.join(name), bytes)
+    }
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {
+    move |cause| RunError::Io {
+        path: path.to_path_buf(),
+        cause,
+    }
+}
+
+/// Runs the pipeline; returns each node with its outcome.
+pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, RunError> {
+    let nodes = plan(&loaded.pipeline);
+    let wanted: Vec<usize> = (0..nodes.len())
+        .filter(|&k| opts.until.is_none_or(|u| nodes[k].stage <= u))
+        .collect();
+    // Refuse what this build cannot do before any work starts.
+    if let Some(k) = wanted.iter().find(|&&k| !nodes[k].stage.built()) {
+        let stage = nodes[*k].stage.name();
+        return Err(Box::new(InputError {
+            file: loaded.file.clone(),
+            key: stage.into(),
+            value: String::new(),
+            message: format!(
+                "the {stage} stage is not built in this version of softgrain; \
+                 remove the section or run with --until {}",
+                Stage::ALL
+                    .iter()
+                    .rev()
+                    .find(|s| s.built() && **s < nodes[*k].stage)
+                    .map_or("prepare", |s| s.name())
+            ),
+            at: None,
+            from_set: false,
+        })
+        .into());
+    }
+    let root = run_dir(&opts.out, loaded);
+    let ckpt_dir = root.join("checkpoints");
+    let mut states: Vec<Option<StageState>> = vec![None; nodes.len()];
+    let mut outcomes = Vec::new();
+    for &k in &wanted {
+        let node = &nodes[k];
+        let path = ckpt_dir.join(node.checkpoint_name());
+        let forced = opts.from.is_some_and(|f| node.stage >= f);
+        if !forced {
+            match store::load::<StageState>(&path).map_err(io_err(&path))? {
+                Some(Ok(state)) => {
+                    report(opts, node, "cached");
+                    states[k] = Some(state);
+                    outcomes.push((node.clone(), Outcome::Cached));
+                    continue;
+                }
+                Some(Err(e)) => {
+                    eprintln!(
+                        "{}: checkpoint {} is not valid ({e}); recomputing",
+                        node.stage.name(),
+                        path.display()
+                    );
+                }
+                None => {}
+            }
+        }
+        let ctx = StageCtx {
+            dir: root.join(node.stage.name()).join(&node.case),
+            snapshot: root
+                .join("snapshots")
+                .join(node.checkpoint_name().replace(".ckpt", ".snap")),
+            quiet: opts.quiet,
+        };
+        std::fs::create_dir_all(&ctx.dir).map_err(io_err(&ctx.dir))?;
+        let upstream: Vec<&StageState> = node
+            .upstream
+            .iter()
+            .map(|&u| states[u].as_ref().expect("upstream runs first"))
+            .collect();
+        let start = Instant::now();
+        let (state, summary) =
+            stages::run(&loaded.pipeline, node, &upstream, &ctx).map_err(|cause| {
+                RunError::Stage {
+                    stage: node.stage.name(),
+                    case: node.case.clone(),
+                    cause,
+                }
+            })?;
+        let seconds = start.elapsed().as_secs_f64();
+        let figures = serde_json::json!({
+            "stage": node.stage.name(),
+            "case": node.case,
+            "hash": node.hash.to_hex().as_str(),
+            "wall_s": seconds,
+            "summary": summary,
+            "figures": state.figures(),
+        });
+        let json = serde_json::to_vec_pretty(&figures).expect("json");
+        ctx.write("stage.json", &json).map_err(io_err(&ctx.dir))?;
+        // The checkpoint last: it is the commit point of the node.
+        store::save(&path, &state).map_err(io_err(&path))?;
+        let _ = std::fs::remove_file(&ctx.snapshot);
+        report(opts, node, &format!("done in {seconds:.1} s: {summary}"));
+        states[k] = Some(state);
+        outcomes.push((node.clone(), Outcome::Computed { seconds, summary }));
+    }
+    Ok(outcomes)
+}
+
+fn report(opts: &RunOptions, node: &Node, what: &str) {
+    if !opts.quiet {
+        println!(
+            "{:<10} {:<18} {}  {what}",
+            node.stage.name(),
+            node.case,
+            node.short()
+        );
+    }
+}
+
+/// One line per node: `cached`, `stale` (a checkpoint for other parameters exists) or
+/// `missing`. Reads file names and headers only; computes nothing.
+pub fn status(loaded: &Loaded, out: &Path) -> Vec<(Node, &'static str)> {
+    let ckpt_dir = run_dir(out, loaded).join("checkpoints");
+    let names: Vec<String> = std::fs::read_dir(&ckpt_dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    plan(&loaded.pipeline)
+        .into_iter()
+        .map(|node| {
+            let own = node.checkpoint_name();
+            let prefix = format!("{}.{}.", node.stage.name(), node.case);
+            let valid = std::fs::read(ckpt_dir.join(&own))
+                .map(|b| store::verify(&b).is_ok())
+                .unwrap_or(false);
+            let word = if valid {
+                "cached"
+            } else if names
+                .iter()
+                .any(|n| n.starts_with(&prefix) && n.ends_with(".ckpt") && *n != own)
+            {
+                "stale"
+            } else {
+                "missing"
+            };
+            (node, word)
+        })
+        .collect()
+}

@@ -1,0 +1,60 @@
+//! The contact-dynamics deposit (prepare stage) against statics: at rest, the floor carries
+//! the whole weight (walls are frictionless), contacts barely overlap, no disk leaves the box.
+
+mod common;
+
+use softgrain::config;
+use softgrain::pipeline::{self, RunOptions, store};
+use softgrain::stages::StageState;
+
+fn deposit(grains: usize, friction: f64, tag: &str) -> softgrain::stages::prepare::Prepared {
+    let dir = common::temp_dir(tag);
+    let yaml = format!(
+        "name: dep\nseed: 7\nprepare:\n  grains: {grains}\n  diameter: [1.4e-3, 2.4e-3]\n  friction: {friction}\noutput:\n  every: 0\n  vtk: false\n"
+    );
+    let file = common::write(&dir, "dep.yaml", &yaml);
+    let loaded = config::load(&file, &[]).unwrap();
+    let opts = RunOptions {
+        out: dir.clone(),
+        from: None,
+        until: None,
+        quiet: true,
+    };
+    let out = pipeline::run(&loaded, &opts).unwrap();
+    let node = &out[0].0;
+    let path = dir.join("dep/checkpoints").join(node.checkpoint_name());
+    let state: StageState = store::load(&path).unwrap().unwrap().unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    match state {
+        StageState::Prepared(p) => p,
+    }
+}
+
+fn check(p: &softgrain::stages::prepare::Prepared) {
+    let f = &p.figures;
+    assert!(
+        (f.floor_force / f.weight - 1.0).abs() < 0.005,
+        "floor carries {} of the weight",
+        f.floor_force / f.weight
+    );
+    assert!(f.mean_overlap < 1e-3, "mean overlap {} <r>", f.mean_overlap);
+    let b = &p.bodies;
+    let tol = 1e-3 * b.mean_radius();
+    for i in 0..b.len() {
+        let (x, r) = (b.pos[i], b.radius[i]);
+        assert!(
+            x.y - r > -tol && x.x - r > -tol && x.x + r < p.box_width + tol,
+            "disk {i} at {x:?} is outside the box"
+        );
+    }
+}
+
+#[test]
+fn frictional_deposit_of_300_disks_rests_on_the_floor() {
+    check(&deposit(300, 0.3, "dep300"));
+}
+
+#[test]
+fn frictionless_deposit_rests_on_the_floor() {
+    check(&deposit(100, 0.0, "dep100"));
+}

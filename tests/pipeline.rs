@@ -1,0 +1,245 @@
+//! The pipeline tool: caching, content hashes, --set, corruption, exit codes.
+
+mod common;
+
+use common::{checkpoints, softgrain, stderr, stdout, temp_dir, write};
+use softgrain::config;
+use softgrain::pipeline::{Stage, plan};
+
+const SMALL: &str = "name: small\nseed: 3\nprepare:\n  grains: 20\n  diameter: [1.4e-3, 2.4e-3]\noutput:\n  every: 100\n";
+
+#[test]
+fn second_run_recomputes_nothing_and_says_so() {
+    let dir = temp_dir("cache");
+    let f = write(&dir, "p.yaml", SMALL);
+    let out = dir.to_str().unwrap();
+    let first = softgrain(&["pipeline", "run", f.to_str().unwrap(), "--out", out]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    assert!(stdout(&first).contains("done in"));
+    let before = std::fs::read(&checkpoints(&dir.join("small"))[0]).unwrap();
+    let second = softgrain(&["pipeline", "run", f.to_str().unwrap(), "--out", out]);
+    assert!(second.status.success());
+    let text = stdout(&second);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1);
+    assert!(lines.iter().all(|l| l.ends_with("cached")), "{lines:?}");
+    assert_eq!(
+        before,
+        std::fs::read(&checkpoints(&dir.join("small"))[0]).unwrap()
+    );
+    let status = softgrain(&["pipeline", "status", f.to_str().unwrap(), "--out", out]);
+    assert!(stdout(&status).trim_end().ends_with("cached"));
+    // --from prepare recomputes it
+    let forced = softgrain(&[
+        "pipeline",
+        "run",
+        f.to_str().unwrap(),
+        "--out",
+        out,
+        "--from",
+        "prepare",
+        "-q",
+    ]);
+    assert!(forced.status.success());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn same_seed_gives_byte_identical_checkpoints() {
+    let dir = temp_dir("bits");
+    let f = write(&dir, "p.yaml", SMALL);
+    let run = |sub: &str| {
+        let o = softgrain(&[
+            "pipeline",
+            "run",
+            f.to_str().unwrap(),
+            "--out",
+            dir.join(sub).to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(&checkpoints(&dir.join(sub).join("small"))[0]).unwrap()
+    };
+    assert_eq!(run("a"), run("b"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn truncated_or_flipped_checkpoint_is_detected_and_recomputed() {
+    let dir = temp_dir("corrupt");
+    let f = write(&dir, "p.yaml", SMALL);
+    let args = [
+        "pipeline",
+        "run",
+        f.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ];
+    assert!(softgrain(&args).status.success());
+    let ck = checkpoints(&dir.join("small"))[0].clone();
+    let good = std::fs::read(&ck).unwrap();
+    for bad in [good[..good.len() / 2].to_vec(), {
+        let mut b = good.clone();
+        let k = b.len() - 10;
+        b[k] ^= 1;
+        b
+    }] {
+        std::fs::write(&ck, &bad).unwrap();
+        let o = softgrain(&args);
+        assert!(o.status.success());
+        assert!(stderr(&o).contains("is not valid"), "{}", stderr(&o));
+        assert!(stdout(&o).contains("done in"), "recomputed");
+        assert_eq!(std::fs::read(&ck).unwrap(), good);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+const GRAPH: &str = "name: g\nprepare:\n  grains: 20\n  diameter: [1.4e-3, 2.4e-3]\ndiscretise:\n  method: [bpm, mpm]\n  bpm:\n    particle_diameter: [[1.0e-4, 2.4e-4], [1.6e-4, 2.6e-4]]\n    f0: 1.0\n  mpm:\n    young: 1.0e7\n    poisson: 0.45\n    density: 990.0\n    resolution: 0.05\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.3\n  friction: [0.0, 0.5]\n";
+
+fn hashes(dir: &std::path::Path, text: &str, sets: &[&str]) -> Vec<(Stage, String, String)> {
+    let f = write(dir, "g.yaml", text);
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let l = config::load(&f, &sets).unwrap();
+    plan(&l.pipeline)
+        .into_iter()
+        .map(|n| (n.stage, n.case.clone(), n.short()))
+        .collect()
+}
+
+#[test]
+fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
+    let dir = temp_dir("graph");
+    let base = hashes(&dir, GRAPH, &[]);
+    let cases: Vec<&str> = base.iter().map(|(_, c, _)| c.as_str()).collect();
+    assert_eq!(
+        cases,
+        [
+            "deposit",
+            "bpm-d0.1-0.24",
+            "bpm-d0.16-0.26",
+            "mpm",
+            "bpm-d0.1-0.24-mu0",
+            "bpm-d0.1-0.24-mu0.5",
+            "bpm-d0.16-0.26-mu0",
+            "bpm-d0.16-0.26-mu0.5",
+            "mpm-mu0",
+            "mpm-mu0.5"
+        ]
+    );
+    let changed = |other: &[(Stage, String, String)]| -> Vec<String> {
+        base.iter()
+            .zip(other)
+            .filter(|(a, b)| a.2 != b.2)
+            .map(|(a, _)| a.1.clone())
+            .collect()
+    };
+    // a compaction key: only the compact nodes
+    let c = hashes(
+        &dir,
+        &GRAPH.replace("final_strain: 0.3", "final_strain: 0.4"),
+        &[],
+    );
+    assert_eq!(changed(&c), cases[4..].to_vec());
+    // an MPM material key: the MPM discretisation and its compactions
+    let m = hashes(&dir, &GRAPH.replace("young: 1.0e7", "young: 2.0e7"), &[]);
+    assert_eq!(changed(&m), ["mpm", "mpm-mu0", "mpm-mu0.5"]);
+    // a deposit key: everything
+    let p = hashes(&dir, &GRAPH.replace("grains: 20", "grains: 21"), &[]);
+    assert_eq!(changed(&p).len(), base.len());
+    // --set gives the hash of the edited file
+    let s = hashes(&dir, GRAPH, &["discretise.mpm.young=2.0e7"]);
+    assert_eq!(s, m);
+    let s = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.5]"]);
+    assert_eq!(s, base);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_exits_2_naming_file_key_value_and_position() {
+    let dir = temp_dir("bad");
+    let cases = [
+        (
+            SMALL.replace("seed: 3", "seed: 3\nbogus: 1"),
+            "p.yaml:3:1: unknown field `bogus`",
+        ),
+        (SMALL.replace("grains: 20", "grains: [20"), "p.yaml:"),
+        (
+            SMALL.replace("diameter: [1.4e-3, 2.4e-3]", "diameter: [2.4e-3, 1.4e-3]"),
+            "p.yaml:5:3: prepare.diameter = [0.0024, 0.0014]: must be [min, max]",
+        ),
+        (
+            SMALL.replace("prepare:", "solver:\n  theta: 2.0\nprepare:"),
+            "p.yaml:4:3: solver.theta = 2.0: must be in [0.5, 1]",
+        ),
+    ];
+    for (text, expect) in cases {
+        let f = write(&dir, "p.yaml", &text);
+        for cmd in [
+            &["validate"][..],
+            &["pipeline", "run"],
+            &["pipeline", "status"],
+        ] {
+            let mut args = cmd.to_vec();
+            args.push(f.to_str().unwrap());
+            let o = softgrain(&args);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+            assert!(
+                stderr(&o).contains(expect),
+                "expected `{expect}` in: {}",
+                stderr(&o)
+            );
+        }
+    }
+    let f = write(&dir, "p.yaml", SMALL);
+    let o = softgrain(&[
+        "validate",
+        f.to_str().unwrap(),
+        "--set",
+        "prepare.friction=-1",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--set prepare.friction = -1.0: must be a finite number >= 0"),
+        "{}",
+        stderr(&o)
+    );
+    let o = softgrain(&["validate", f.to_str().unwrap(), "--set", "prepare.nope=1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("unknown key `nope`"), "{}", stderr(&o));
+    let o = softgrain(&["validate", dir.join("missing.yaml").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("missing.yaml: cannot read"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_stage_not_built_yet_is_refused_before_any_work() {
+    let dir = temp_dir("unbuilt");
+    let f = write(&dir, "g.yaml", GRAPH);
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        f.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("discretise stage is not built"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.join("g").exists(), "work started before the refusal");
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        f.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--until",
+        "prepare",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
