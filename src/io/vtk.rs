@@ -359,13 +359,32 @@ fn write_atomic(
     Ok(())
 }
 
-/// Writes one frame as a ZLib-compressed XML UnstructuredGrid `.vtu` file,
-/// atomically. Returns `InvalidInput` if an array length, a zz length or a line
-/// index does not match the points, or if array names are empty or repeated.
+/// Writes one frame as a ZLib-compressed XML UnstructuredGrid `.vtu` file
+/// (level [`COMPRESSION_LEVEL`]), atomically. Returns `InvalidInput` if an
+/// array length, a zz length or a line index does not match the points, or if
+/// array names are empty or repeated.
+///
+/// Cost (vtkio 0.7.0-rc2 feeds zlib one value at a time): about 7 µs and
+/// 56 bytes per point for points + 17 values per point; see [`write_vtu_with`]
+/// for uncompressed output, which is ~4x faster to encode and ~3.7x larger.
 pub fn write_vtu(path: &Path, frame: &Frame) -> io::Result<()> {
+    write_vtu_with(path, frame, COMPRESSION_LEVEL)
+}
+
+/// As [`write_vtu`], with a ZLib compression level from 0 to 9; 0 writes
+/// uncompressed (still base64 binary) data.
+pub fn write_vtu_with(path: &Path, frame: &Frame, level: u32) -> io::Result<()> {
+    if level > 9 {
+        return Err(invalid(format!("compression level {level} > 9")));
+    }
     let vtk = frame_to_vtk(frame)?;
+    let compressor = if level == 0 {
+        Compressor::None
+    } else {
+        Compressor::ZLib
+    };
     let xml = vtk
-        .try_into_xml_format(Compressor::ZLib, COMPRESSION_LEVEL)
+        .try_into_xml_format(compressor, level)
         .map_err(|e| io::Error::other(format!("vtkio: {e}")))?;
     write_atomic(path, |w| {
         xml.write(&mut *w)
