@@ -15,6 +15,9 @@ pub const DEPOSIT_FRICTION: f64 = 0.3;
 pub const WALL_FRICTION: f64 = 0.0;
 /// Rest criterion: translational kinetic energy over Σ m g <d> (dimensionless).
 pub const REST_TOLERANCE: f64 = 1e-9;
+/// The rest criterion must hold this many consecutive steps: with zero restitution a
+/// packing can stop dead for an instant between two collapses.
+pub const REST_STEPS: u64 = 50;
 /// Give up a deposit that is not at rest after this much simulated time (s).
 pub const MAX_TIME: f64 = 20.0;
 /// Deposit time step in units of sqrt(<d>/g): a disk falling one box height moves a few

@@ -59,6 +59,8 @@ struct Running {
     floor_window: Vec<f64>,
     /// Time after which the rest test applies (all disks had time to fall).
     settle_after: f64,
+    /// Consecutive steps the packing has met the rest criterion.
+    quiet_steps: u64,
 }
 
 /// Steps over which the floor force is averaged.
@@ -87,10 +89,7 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
     loop {
         let done = match prep.layout {
             Layout::Explicit => st.scene.time >= limit - 0.5 * h,
-            _ => {
-                st.scene.time > st.settle_after
-                    && rest_ratio(&st.scene, prep.gravity) < prep.rest_tolerance
-            }
+            _ => st.quiet_steps >= defaults::REST_STEPS,
         };
         if done {
             break;
@@ -110,6 +109,9 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
         f.unconverged_steps += u64::from(!r.nlgs.converged);
         f.contact_updates += r.nlgs.iterations as u64 * r.contacts as u64;
         if prep.layout == Layout::Packing {
+            let quiet = st.scene.time > st.settle_after
+                && rest_ratio(&st.scene, prep.gravity) < prep.rest_tolerance;
+            st.quiet_steps = if quiet { st.quiet_steps + 1 } else { 0 };
             st.floor_window.push(st.scene.wall_force[0].y);
             if st.floor_window.len() > FLOOR_WINDOW {
                 st.floor_window.remove(0);
@@ -232,6 +234,7 @@ fn start(p: &Pipeline) -> Result<Running, String> {
         trajectories: "time,body,x,y,vx,vy,omega\n".into(),
         floor_window: Vec::new(),
         settle_after,
+        quiet_steps: 0,
     })
 }
 

@@ -1,0 +1,43 @@
+#!/usr/bin/env python3
+"""Check the values of a quick.yaml run as ParaView/pyvista users see them.
+
+Usage: python3 tests/python/check_quick.py RUN_DIR   (RUN_DIR = <--out>/quick)
+
+The last frame of the deposit must hold the 30 grains with distinct ids, radii inside the
+pipeline's [0.7, 1.2] mm, centres above the floor, and (at rest) negligible velocities.
+"""
+import json
+import sys
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pyvista as pv
+
+run = Path(sys.argv[1])
+dep = run / "prepare" / "deposit"
+reader = pv.get_reader(str(dep / "series.pvd"))
+reader.set_active_time_point(len(reader.time_values) - 1)
+last = reader.read()[0]
+m = meshio.read(sorted(dep.glob("frame_*.vtu"))[-1])
+failures = []
+
+def check(name, ok):
+    print(("ok   " if ok else "FAIL ") + name)
+    if not ok:
+        failures.append(name)
+
+ids = np.asarray(last.point_data["grain_id"])
+r = np.asarray(last.point_data["radius"])
+v = np.asarray(last.point_data["velocity"])
+pts = np.asarray(last.points)
+check("30 grains with distinct ids", len(ids) == 30 and len(set(ids.tolist())) == 30)
+check("radii in [0.7, 1.2] mm", bool(np.all((r >= 0.7e-3) & (r <= 1.2e-3))))
+check("centres above the floor", bool(np.all(pts[:, 1] - r > -1e-6)))
+check("at rest: |v| < 1e-3 m/s", float(np.abs(v).max()) < 1e-3)
+check("meshio sees the same radii", np.allclose(m.point_data["radius"], r))
+stage = json.loads((dep / "stage.json").read_text())
+f = stage["figures"]
+check("stage.json: floor force = weight within 0.5%", abs(f["floor_force"] / f["weight"] - 1) < 5e-3)
+print(f"{5 + 1 - len(failures)} passed, {len(failures)} failed")
+sys.exit(1 if failures else 0)
