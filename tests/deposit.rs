@@ -27,6 +27,7 @@ fn deposit(grains: usize, friction: f64, tag: &str) -> softgrain::stages::prepar
     let _ = std::fs::remove_dir_all(&dir);
     match state {
         StageState::Prepared(p) => p,
+        other => panic!("prepare produced {other:?}"),
     }
 }
 

@@ -15,6 +15,8 @@ pub struct Bodies {
     pub inv_mass: Vec<f64>,
     pub inv_inertia: Vec<f64>,
     pub group: Vec<u32>,
+    /// Constant external force on each disk (N/m), besides gravity.
+    pub force: Vec<V2>,
 }
 
 impl Bodies {
@@ -37,6 +39,7 @@ impl Bodies {
         self.inv_mass.push(1.0 / mass);
         self.inv_inertia.push(2.0 / (mass * radius * radius));
         self.group.push(group);
+        self.force.push(V2::zeros());
     }
 
     pub fn mass(&self, i: usize) -> f64 {

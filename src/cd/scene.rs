@@ -129,8 +129,9 @@ impl<L: InteractionLaw> Scene<L> {
         // 1-2. Smooth forces (gravity, explicit law forces) and free velocities.
         let v_minus = (theta < 1.0).then(|| (self.bodies.vel.clone(), self.bodies.omega.clone()));
         let g = self.params.gravity;
-        for v in self.bodies.vel.iter_mut() {
-            *v += h * g;
+        let b = &mut self.bodies;
+        for i in 0..b.len() {
+            b.vel[i] += h * (g + b.inv_mass[i] * b.force[i]);
         }
         for c in &contacts {
             let a0 = self.a0(c);

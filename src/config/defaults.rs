@@ -33,6 +33,12 @@ pub const BPM_GAMMA: f64 = 7.0;
 /// Cut-off of Eq. (1) in units of a0: the paper's δ = a0.
 pub const BPM_CUTOFF: f64 = 1.0;
 
+/// BPM time step in units of t0 = sqrt(m a0/F0) of the smallest particle: the explicit
+/// attraction is stable below about 0.53 t0 (METHODS.md §1.9).
+pub const BPM_STEP: f64 = 0.1;
+/// Steps of relaxation of freshly built aggregates under their own attraction.
+pub const BPM_RELAX_STEPS: u64 = 400;
+
 // ---- contact-dynamics solver ----
 /// θ of the Moreau-Jean scheme: 1 closes contacts exactly (METHODS.md §1.1).
 pub const THETA: f64 = 1.0;

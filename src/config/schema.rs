@@ -232,6 +232,9 @@ pub struct Bpm {
     /// Cut-off gap in units of a0 = r_i + r_j.
     #[serde(default = "cutoff")]
     pub cutoff: f64,
+    /// Primary-particle density (kg/m³); the paper gives none, its grains' 990 is used.
+    #[serde(default = "density")]
+    pub density: f64,
 }
 
 fn gamma() -> f64 {
@@ -266,6 +269,15 @@ pub struct Compact {
     /// Inter-grain friction: one case per value.
     #[serde(default = "no_friction")]
     pub friction: OneOrMany<f64>,
+    /// Wall friction coefficient (the paper: frictionless walls).
+    #[serde(default = "wall_friction")]
+    pub wall_friction: f64,
+    /// Gravity (m/s², along -y) during compaction; none by default (section 5 of METHODS.md).
+    #[serde(default)]
+    pub gravity: f64,
+    /// Time step (s). BPM default: 0.1 t0, t0 = sqrt(m a0 / F0) of the smallest particle.
+    #[serde(default)]
+    pub time_step: Option<f64>,
 }
 
 fn no_friction() -> OneOrMany<f64> {

@@ -66,6 +66,11 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
         for mu in c.friction.to_vec() {
             non_negative("compact.friction", mu)?;
         }
+        non_negative("compact.wall_friction", c.wall_friction)?;
+        non_negative("compact.gravity", c.gravity)?;
+        if let Some(dt) = c.time_step {
+            positive("compact.time_step", dt)?;
+        }
     }
     Ok(())
 }
@@ -173,6 +178,7 @@ fn discretise(d: &Discretise) -> Result<(), Failure> {
         positive("discretise.bpm.f0", b.f0)?;
         positive("discretise.bpm.gamma", b.gamma)?;
         positive("discretise.bpm.cutoff", b.cutoff)?;
+        positive("discretise.bpm.density", b.density)?;
     }
     if methods.contains(&Method::Mpm) {
         let Some(m) = &d.mpm else {

@@ -105,25 +105,18 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         .filter(|&k| opts.until.is_none_or(|u| nodes[k].stage <= u))
         .collect();
     // Refuse what this build cannot do before any work starts.
-    if let Some(k) = wanted.iter().find(|&&k| !nodes[k].stage.built()) {
-        let stage = nodes[*k].stage.name();
-        return Err(Box::new(InputError {
-            file: loaded.file.clone(),
-            key: stage.into(),
-            value: String::new(),
-            message: format!(
-                "the {stage} stage is not built in this version of softgrain; \
-                 remove the section or run with --until {}",
-                Stage::ALL
-                    .iter()
-                    .rev()
-                    .find(|s| s.built() && **s < nodes[*k].stage)
-                    .map_or("prepare", |s| s.name())
-            ),
-            at: None,
-            from_set: false,
-        })
-        .into());
+    for &k in &wanted {
+        if let Err(why) = stages::supported(&nodes[k]) {
+            return Err(Box::new(InputError {
+                file: loaded.file.clone(),
+                key: nodes[k].stage.name().into(),
+                value: nodes[k].case.clone(),
+                message: format!("{why}; remove it from the pipeline or stop earlier with --until"),
+                at: None,
+                from_set: false,
+            })
+            .into());
+        }
     }
     let root = run_dir(&opts.out, loaded);
     let ckpt_dir = root.join("checkpoints");

@@ -36,12 +36,6 @@ impl Stage {
     pub fn parse(s: &str) -> Option<Stage> {
         Stage::ALL.into_iter().find(|st| st.name() == s)
     }
-
-    /// Whether this build can run the stage. A stage that is not built is refused before
-    /// any work starts, never faked.
-    pub fn built(self) -> bool {
-        matches!(self, Stage::Prepare)
-    }
 }
 
 #[derive(Clone, Debug)]

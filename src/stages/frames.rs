@@ -27,10 +27,15 @@ impl FrameLog {
         let file = format!("frame_{:06}.vtu", self.entries.len());
         write_vtu(&dir.join(&file), &frame)?;
         self.entries.push((time, file));
+        self.write_pvd(&dir.join("series.pvd"))
+    }
+
+    /// Writes the collection of every frame logged so far.
+    pub fn write_pvd(&self, path: &Path) -> std::io::Result<()> {
         let mut series = Series::new();
         for (t, f) in &self.entries {
             series.push(*t, f);
         }
-        series.write_pvd(&dir.join("series.pvd"))
+        series.write_pvd(path)
     }
 }
