@@ -6,6 +6,10 @@ use crate::rng::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+/// Smallest chunk of work handed to a rayon thread: below it, splitting costs more than it
+/// saves (a single BPM grain steps in well under a millisecond).
+const PAR_MIN: usize = 4096;
+
 /// Time-stepping settings of the contact-dynamics engine.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CdParams {
@@ -109,6 +113,7 @@ impl<L: InteractionLaw> Scene<L> {
             .bodies
             .vel
             .par_iter()
+            .with_min_len(PAR_MIN)
             .map(|v| v.norm())
             .reduce(|| 0.0, f64::max);
         let w_max = self
@@ -216,53 +221,61 @@ impl<L: InteractionLaw> Scene<L> {
     fn detect(&self, pos: &[V2], pred: f64, alert: f64) -> Vec<Contact> {
         let b = &self.bodies;
         let laws = &self.laws;
-        let pairs = self.neighbours.pairs.par_iter().filter_map(|&(i, j)| {
-            let (iu, ju) = (i as usize, j as usize);
-            let d = pos[iu] - pos[ju];
-            let dist = d.norm();
-            let a0 = b.radius[iu] + b.radius[ju];
-            let gap = dist - a0;
-            let law = if b.group[iu] == b.group[ju] {
-                LawTable::<L>::SAME_GROUP
-            } else {
-                LawTable::<L>::OTHER_GROUP
-            };
-            if gap > alert.max(laws.get(law).range(a0)) {
-                return None;
-            }
-            let (mi, mj) = (b.inv_mass[iu], b.inv_mass[ju]);
-            let (ri, rj) = (b.radius[iu], b.radius[ju]);
-            Some(Contact {
-                i,
-                j: Partner::Body(j),
-                law,
-                n: d / dist,
-                gap,
-                w_nn: mi + mj,
-                w_tt: mi + mj + ri * ri * b.inv_inertia[iu] + rj * rj * b.inv_inertia[ju],
-                p_n: 0.0,
-                p_t: 0.0,
-            })
-        });
-        let walls = (0..b.len()).into_par_iter().flat_map_iter(|i| {
-            self.walls.iter().enumerate().filter_map(move |(w, wall)| {
-                let (gap, n) = wall.gap(pred * wall.velocity, pos[i], b.radius[i])?;
-                (gap <= alert).then(|| {
-                    let (mi, ri) = (b.inv_mass[i], b.radius[i]);
-                    Contact {
-                        i: i as u32,
-                        j: Partner::Wall(w as u32),
-                        law: LawTable::<L>::wall_law(w),
-                        n,
-                        gap,
-                        w_nn: mi,
-                        w_tt: mi + ri * ri * b.inv_inertia[i],
-                        p_n: 0.0,
-                        p_t: 0.0,
-                    }
+        let pairs = self
+            .neighbours
+            .pairs
+            .par_iter()
+            .with_min_len(PAR_MIN)
+            .filter_map(|&(i, j)| {
+                let (iu, ju) = (i as usize, j as usize);
+                let d = pos[iu] - pos[ju];
+                let dist = d.norm();
+                let a0 = b.radius[iu] + b.radius[ju];
+                let gap = dist - a0;
+                let law = if b.group[iu] == b.group[ju] {
+                    LawTable::<L>::SAME_GROUP
+                } else {
+                    LawTable::<L>::OTHER_GROUP
+                };
+                if gap > alert.max(laws.get(law).range(a0)) {
+                    return None;
+                }
+                let (mi, mj) = (b.inv_mass[iu], b.inv_mass[ju]);
+                let (ri, rj) = (b.radius[iu], b.radius[ju]);
+                Some(Contact {
+                    i,
+                    j: Partner::Body(j),
+                    law,
+                    n: d / dist,
+                    gap,
+                    w_nn: mi + mj,
+                    w_tt: mi + mj + ri * ri * b.inv_inertia[iu] + rj * rj * b.inv_inertia[ju],
+                    p_n: 0.0,
+                    p_t: 0.0,
                 })
-            })
-        });
+            });
+        let walls = (0..b.len())
+            .into_par_iter()
+            .with_min_len(PAR_MIN)
+            .flat_map_iter(|i| {
+                self.walls.iter().enumerate().filter_map(move |(w, wall)| {
+                    let (gap, n) = wall.gap(pred * wall.velocity, pos[i], b.radius[i])?;
+                    (gap <= alert).then(|| {
+                        let (mi, ri) = (b.inv_mass[i], b.radius[i]);
+                        Contact {
+                            i: i as u32,
+                            j: Partner::Wall(w as u32),
+                            law: LawTable::<L>::wall_law(w),
+                            n,
+                            gap,
+                            w_nn: mi,
+                            w_tt: mi + ri * ri * b.inv_inertia[i],
+                            p_n: 0.0,
+                            p_t: 0.0,
+                        }
+                    })
+                })
+            });
         pairs.chain(walls).collect()
     }
 

@@ -205,6 +205,9 @@ pub fn run_bpm(
         }
         if p.output.snapshot_every > 0 && st.scene.steps % p.output.snapshot_every == 0 {
             ctx.save_snapshot(&st).map_err(io)?;
+            // the rows so far, for a look at a long run while it goes on
+            ctx.write("timeseries.csv", csv(&st.rows).as_bytes())
+                .map_err(io)?;
         }
     }
     if st.since_record > 0 {
@@ -282,6 +285,27 @@ fn write_network(ctx: &StageCtx, st: &mut Running) -> std::io::Result<()> {
     write_vtu(&ctx.dir.join(&file), &frame)?;
     st.contact_frames.entries.push((st.scene.time, file));
     st.contact_frames.write_pvd(&ctx.dir.join("contacts.pvd"))
+}
+
+fn csv(rows: &[Row]) -> String {
+    let mut csv =
+        String::from("time,strain,force,width,sigma,force_top,area,escaped,nlgs_iterations\n");
+    for r in rows {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{}",
+            r.time,
+            r.strain,
+            r.force,
+            r.width,
+            r.sigma,
+            r.force_top,
+            r.area,
+            r.escaped,
+            r.nlgs_iterations
+        );
+    }
+    csv
 }
 
 fn finish(ctx: &StageCtx, st: Running) -> Result<(Compacted, String), String> {
