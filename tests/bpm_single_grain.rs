@@ -1,0 +1,95 @@
+//! One BPM grain between two plates (paper section 3, Fig. 6), on a grain small enough for
+//! CI: R = 1.5 mm, particles 0.16-0.26 mm (about 150). The paper-size grain (1750
+//! particles) is the pipeline `pipelines/single-grain-bpm.yaml`, recorded in the README.
+
+mod common;
+
+use softgrain::config;
+use softgrain::pipeline::{self, RunOptions, store};
+use softgrain::stages::StageState;
+use softgrain::stages::compact::Compacted;
+
+fn compress(tag: &str, sets: &[&str]) -> Compacted {
+    let dir = common::temp_dir(tag);
+    let yaml = "name: g\nseed: 1\nprepare:\n  layout: single\n  radius: 1.5e-3\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.3\nsolver:\n  tolerance: 1.0e-3\noutput:\n  every: 100\n  vtk: false\n";
+    let file = common::write(&dir, "g.yaml", yaml);
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let loaded = config::load(&file, &sets).unwrap();
+    let opts = RunOptions {
+        out: dir.clone(),
+        from: None,
+        until: None,
+        quiet: true,
+    };
+    let out = pipeline::run(&loaded, &opts).unwrap();
+    let node = &out.last().unwrap().0;
+    let state = store::load(&dir.join("g/checkpoints").join(node.checkpoint_name()))
+        .unwrap()
+        .unwrap()
+        .unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    match state {
+        StageState::Compacted(c) => c,
+        other => panic!("compact produced {other:?}"),
+    }
+}
+
+fn mean_over(
+    c: &Compacted,
+    lo: f64,
+    hi: f64,
+    f: impl Fn(&softgrain::stages::compact::Row) -> f64,
+) -> f64 {
+    let rows: Vec<f64> = c
+        .rows
+        .iter()
+        .filter(|r| r.strain > lo && r.strain <= hi)
+        .map(f)
+        .collect();
+    rows.iter().sum::<f64>() / rows.len() as f64
+}
+
+#[test]
+fn a_bpm_grain_yields_plastically_keeps_its_area_and_its_particles() {
+    let c = compress("bpm1", &[]);
+    let f = &c.figures;
+    let scale = f.f0 / f.mean_a0;
+    // a plastic plateau of order F0/<a0> (the paper: about 1 for its 1750-particle grain;
+    // smaller grains, with more of their particles at the surface, are weaker)
+    assert!(
+        f.plateau > 0.1 && f.plateau < 2.0,
+        "plateau σ<a0>/F0 = {}",
+        f.plateau
+    );
+    // a plateau, not elastic growth: the mean stress hardly changes from [0.1, 0.2] to [0.2, 0.3]
+    let (s1, s2) = (
+        mean_over(&c, 0.1, 0.2, |r| r.sigma),
+        mean_over(&c, 0.2, 0.3, |r| r.sigma),
+    );
+    assert!(
+        s2 / s1 < 2.0 && s2 / s1 > 0.5,
+        "σ over [0.1,0.2] = {:.3}, [0.2,0.3] = {:.3} F0/<a0>",
+        s1 / scale,
+        s2 / scale
+    );
+    // stiff start: by 3% strain the stress has reached a good part of the plateau
+    let early = mean_over(&c, 0.02, 0.04, |r| r.sigma);
+    assert!(
+        early > 0.3 * s1,
+        "σ(2-4%) = {:.3} vs plateau {:.3} F0/<a0>",
+        early / scale,
+        s1 / scale
+    );
+    // quasi-static: the two plates carry the same mean force
+    let (bottom, top) = (
+        mean_over(&c, 0.05, 0.3, |r| r.force),
+        mean_over(&c, 0.05, 0.3, |r| r.force_top),
+    );
+    assert!(
+        (top / bottom - 1.0).abs() < 0.05,
+        "top {top} vs bottom {bottom}"
+    );
+    // nearly constant area (frictionless rearrangements do not dilate) and no escape
+    assert!(f.area_change < 0.05, "area changed by {}", f.area_change);
+    assert_eq!(f.escaped_max, 0);
+}
