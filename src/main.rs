@@ -127,6 +127,12 @@ fn main() -> ExitCode {
                     until,
                     quiet,
                 };
+                // Ctrl-C: a long stage saves a snapshot and stops at its next step.
+                if let Err(e) = ctrlc::set_handler(|| {
+                    pipeline::INTERRUPT.store(true, std::sync::atomic::Ordering::Relaxed);
+                }) {
+                    eprintln!("warning: Ctrl-C will not save a snapshot: {e}");
+                }
                 match pipeline::run(&loaded, &opts) {
                     Ok(_) => ExitCode::SUCCESS,
                     Err(RunError::Input(e)) => input_error(&e),

@@ -2,6 +2,7 @@
 //! others, save their checkpoints. Only this module reads or writes checkpoints.
 
 pub mod codec;
+mod lock;
 mod plan;
 mod progress;
 pub mod store;
@@ -32,7 +33,17 @@ pub enum RunError {
         path: PathBuf,
         cause: std::io::Error,
     },
+    #[error("{0}")]
+    Locked(String),
+    #[error("{stage} [{case}]: interrupted; a snapshot was saved, run again to resume")]
+    Interrupted { stage: &'static str, case: String },
 }
+
+/// Set by the command line's Ctrl-C handler; long stages poll it, save a snapshot and stop.
+pub static INTERRUPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// What a stage returns when it stopped on `INTERRUPT` after saving its snapshot.
+pub const INTERRUPTED: &str = "interrupted";
 
 #[derive(Clone, Debug)]
 pub struct RunOptions {
@@ -81,6 +92,11 @@ impl StageCtx {
         store::save(&self.snapshot, state)
     }
 
+    /// True once Ctrl-C was pressed: save a snapshot and return `Err(INTERRUPTED.into())`.
+    pub fn interrupted(&self) -> bool {
+        INTERRUPT.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
     pub fn progress(&self, label: &str, total: u64) -> Progress {
         Progress::new(label, total, self.quiet)
     }
@@ -119,6 +135,9 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         }
     }
     let root = run_dir(&opts.out, loaded);
+    let _lock = lock::Lock::take(&root.join(".lock")).map_err(RunError::Locked)?;
+    // Holding the lock, any temporary file here is a killed run's half-written file.
+    store::remove_temp_files(&root);
     let ckpt_dir = root.join("checkpoints");
     let mut states: Vec<Option<StageState>> = vec![None; nodes.len()];
     let mut outcomes = Vec::new();
@@ -160,10 +179,11 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         let start = Instant::now();
         let (state, summary) =
             stages::run(&loaded.pipeline, node, &upstream, &ctx).map_err(|cause| {
-                RunError::Stage {
-                    stage: node.stage.name(),
-                    case: node.case.clone(),
-                    cause,
+                let (stage, case) = (node.stage.name(), node.case.clone());
+                if cause == INTERRUPTED {
+                    RunError::Interrupted { stage, case }
+                } else {
+                    RunError::Stage { stage, case, cause }
                 }
             })?;
         let seconds = start.elapsed().as_secs_f64();

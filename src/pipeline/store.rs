@@ -69,6 +69,25 @@ pub fn temp_name(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
 
+/// Removes every temporary file (see `temp_name`) under `dir`: half-written files of a
+/// killed run. Only call it while holding the folder's lock.
+pub fn remove_temp_files(dir: &Path) {
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            remove_temp_files(&p);
+        } else if p.file_name().is_some_and(|n| {
+            let n = n.to_string_lossy();
+            n.starts_with('.') && n.contains(".tmp-")
+        }) {
+            let _ = fs::remove_file(&p);
+        }
+    }
+}
+
 /// Reads and verifies a checkpoint. `Ok(None)` when there is no file.
 pub fn load<T: DeserializeOwned>(path: &Path) -> std::io::Result<Option<Result<T, Corrupt>>> {
     let bytes = match fs::read(path) {

@@ -209,6 +209,10 @@ pub fn run_bpm(
             ctx.write("timeseries.csv", csv(&st.rows).as_bytes())
                 .map_err(io)?;
         }
+        if ctx.interrupted() {
+            ctx.save_snapshot(&st).map_err(io)?;
+            return Err(crate::pipeline::INTERRUPTED.into());
+        }
     }
     if st.since_record > 0 {
         record(p, ctx, &mut st, cutoff).map_err(io)?;

@@ -1,0 +1,202 @@
+//! Nothing lost: killed runs resume to the same bits, Ctrl-C saves a snapshot, one run at a
+//! time per folder.
+
+mod common;
+
+use common::{checkpoints, softgrain, stderr, temp_dir, write};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const GRAIN: &str = "name: g\nseed: 5\nprepare:\n  layout: single\n  radius: 1.5e-3\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.12\nsolver:\n  tolerance: 1.0e-3\noutput:\n  every: 100\n  snapshot_every: 150\n";
+
+const DEPOSIT: &str = "name: g\nseed: 5\nprepare:\n  grains: 120\n  diameter: [1.4e-3, 2.4e-3]\noutput:\n  every: 100\n  snapshot_every: 100\n";
+
+fn spawn(file: &Path, out: &Path) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_softgrain"))
+        .args([
+            "pipeline",
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+fn files(run: &Path, rel: &str) -> Vec<u8> {
+    std::fs::read(run.join(rel)).unwrap()
+}
+
+/// Every file under `dir` whose name marks it as temporary.
+fn temp_files(dir: &Path) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.file_name().unwrap().to_string_lossy().contains(".tmp-") {
+                found.push(p.display().to_string());
+            }
+        }
+    }
+    found
+}
+
+fn killed_runs_end_as_uninterrupted(yaml: &str, tag: &str, kills_ms: &[u64], compare: &[&str]) {
+    let dir = temp_dir(tag);
+    let file = write(&dir, "g.yaml", yaml);
+    let clean = dir.join("clean");
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        clean.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let killed = dir.join("killed");
+    for &ms in kills_ms {
+        let mut child = spawn(&file, &killed);
+        std::thread::sleep(Duration::from_millis(ms));
+        let _ = Command::new("kill")
+            .args(["-9", &child.id().to_string()])
+            .status();
+        let _ = child.wait();
+    }
+    // the lock of a killed run is stale: the next run takes it over and finishes
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        killed.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (a, b) = (
+        checkpoints(&clean.join("g")),
+        checkpoints(&killed.join("g")),
+    );
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.file_name(), y.file_name());
+        assert!(
+            std::fs::read(x).unwrap() == std::fs::read(y).unwrap(),
+            "{} differs after resuming",
+            x.display()
+        );
+    }
+    for rel in compare {
+        assert!(
+            files(&clean.join("g"), rel) == files(&killed.join("g"), rel),
+            "{rel} differs"
+        );
+    }
+    assert!(
+        temp_files(&killed).is_empty(),
+        "left behind: {:?}",
+        temp_files(&killed)
+    );
+    assert!(!killed.join("g/.lock").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_deposit_killed_several_times_ends_as_an_uninterrupted_one() {
+    killed_runs_end_as_uninterrupted(DEPOSIT, "kill-dep", &[150, 300, 450, 700], &[]);
+}
+
+#[test]
+fn a_compaction_killed_several_times_ends_as_an_uninterrupted_one() {
+    killed_runs_end_as_uninterrupted(
+        GRAIN,
+        "kill-bpm",
+        &[400, 900, 1400, 1900],
+        &["compact/bpm-mu0/timeseries.csv"],
+    );
+}
+
+#[test]
+fn ctrl_c_saves_a_snapshot_and_stops_within_a_second() {
+    let dir = temp_dir("sigint");
+    let file = write(
+        &dir,
+        "g.yaml",
+        &GRAIN
+            .replace("final_strain: 0.12", "final_strain: 0.3")
+            .replace("snapshot_every: 150", "snapshot_every: 100000"),
+    );
+    let mut child = spawn(&file, &dir);
+    // wait until the compaction is under way
+    let start = Instant::now();
+    while !dir.join("g/compact/bpm-mu0/frame_000002.vtu").exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "compaction never started"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let sent = Instant::now();
+    let status = child.wait().unwrap();
+    assert!(
+        sent.elapsed() < Duration::from_secs(1),
+        "took {:?}",
+        sent.elapsed()
+    );
+    assert_eq!(status.code(), Some(1));
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert!(err.contains("interrupted; a snapshot was saved"), "{err}");
+    let snaps: Vec<_> = std::fs::read_dir(dir.join("g/snapshots"))
+        .unwrap()
+        .flatten()
+        .collect();
+    assert_eq!(snaps.len(), 1);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_second_run_on_the_same_folder_is_refused_while_the_first_holds_the_lock() {
+    let dir = temp_dir("lock");
+    let file = write(&dir, "g.yaml", DEPOSIT);
+    std::fs::create_dir_all(dir.join("g")).unwrap();
+    // a live holder: this test process
+    std::fs::write(dir.join("g/.lock"), format!("{}\n", std::process::id())).unwrap();
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("another softgrain run"),
+        "{}",
+        stderr(&o)
+    );
+    // a dead holder: stale, taken over
+    std::fs::write(dir.join("g/.lock"), "4000000000\n").unwrap();
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
