@@ -1,0 +1,197 @@
+//! Node contact: every contact that acts on a grain through its grid nodes lives here.
+//!
+//! Today: rigid walls (plates) as partners of infinite mass with an imposed velocity
+//! (METHODS §3.4, §4.5). A node takes part when it carries grain mass and lies on or
+//! behind the wall plane (where the wall's own field would cover it). Its gap is measured
+//! from the material points it sees, `g_i = min_{p: S_ip > 0} ((x_p - x_w)·n - l_p)`.
+//! Signorini is imposed on the end-of-step gap,
+//! `g_i + n·(u_i - Δt V_w) >= 0  ⊥  f_n >= 0`,
+//! which for `γ = 1/2` is the velocity Signorini of Eq. 11 with the gap closed within the
+//! step (so an overlap left by interpolation is removed, not kept). For a single grain the
+//! node conditions are solved exactly inside Newton by a primal–dual active set: an active
+//! node has its normal displacement prescribed and its force read from the residual; it is
+//! released when that force turns tensile, and activated when its gap would close. This is
+//! the condensed (exact Delassus) solution of §4.4B rather than the mass-only `W = Δt/(2m)`
+//! fixed point, which converges slowly at the large steps used here.
+//! Walls are frictionless and axis-aligned (normals `±e_x`, `±e_y`).
+//!
+//! Grain–grain contact at shared nodes (Eqs. 11–12) is to grow in this file.
+
+use super::grid::Grid;
+use super::points::Points;
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+
+/// A rigid, frictionless, axis-aligned wall moving at an imposed velocity.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Wall {
+    /// A point of the wall plane (m).
+    pub origin: Vector2<f64>,
+    /// Unit normal pointing to the grain side: `±e_x` or `±e_y`.
+    pub normal: Vector2<f64>,
+    /// Imposed velocity (m/s).
+    pub velocity: Vector2<f64>,
+    /// Force exerted by the grain on the wall over the last step (N/m).
+    pub force: Vector2<f64>,
+    /// Nodes in contact at the end of the last step.
+    pub contacts: usize,
+}
+
+impl Wall {
+    pub fn new(origin: Vector2<f64>, normal: Vector2<f64>, velocity: Vector2<f64>) -> Wall {
+        Wall {
+            origin,
+            normal,
+            velocity,
+            force: Vector2::zeros(),
+            contacts: 0,
+        }
+    }
+
+    /// Compressive normal force on the wall, `-F·n >= 0` (N/m).
+    pub fn normal_force(&self) -> f64 {
+        -self.force.dot(&self.normal)
+    }
+
+    /// Index (0 = x, 1 = y) of the normal axis and its sign.
+    fn axis(&self) -> (usize, f64) {
+        if self.normal.x.abs() > 0.5 {
+            (0, self.normal.x.signum())
+        } else {
+            (1, self.normal.y.signum())
+        }
+    }
+
+    pub fn is_axis_aligned(&self) -> bool {
+        let n = self.normal;
+        ((n.x.abs() - 1.0).abs() < 1e-12 && n.y == 0.0)
+            || ((n.y.abs() - 1.0).abs() < 1e-12 && n.x == 0.0)
+    }
+}
+
+/// One node–wall contact for the current step.
+#[derive(Clone, Copy, Debug)]
+pub struct NodeContact {
+    pub wall: usize,
+    /// Active node index and the constrained DOF `2 node + axis`.
+    pub node: usize,
+    pub dof: usize,
+    /// `n` along the DOF axis (±1).
+    pub sign: f64,
+    /// Lower bound on `sign · u_dof`: `Δt V_w·n - g_i`.
+    pub bound: f64,
+    pub active: bool,
+    /// Normal force on the grain (N/m), valid while active.
+    pub force: f64,
+}
+
+/// Finds the wall contact candidates of this step.
+///
+/// `node_pos` are the active nodes' positions, `point_nodes(p)` the active nodes a point
+/// reaches with a positive weight. `gap` is scratch of length `node_pos.len()`.
+#[allow(clippy::too_many_arguments)]
+pub fn detect<'a>(
+    walls: &[Wall],
+    grid: &Grid,
+    points: &Points,
+    node_pos: &[Vector2<f64>],
+    point_nodes: impl Fn(usize) -> &'a [usize],
+    dt: f64,
+    gap: &mut Vec<f64>,
+    out: &mut Vec<NodeContact>,
+) {
+    out.clear();
+    let on_plane = 1e-9 * grid.h;
+    for (w, wall) in walls.iter().enumerate() {
+        let (axis, sign) = wall.axis();
+        gap.clear();
+        gap.resize(node_pos.len(), f64::INFINITY);
+        for p in 0..points.len() {
+            let gp = (points.x[p] - wall.origin).dot(&wall.normal) - points.half_size;
+            for &i in point_nodes(p) {
+                gap[i] = gap[i].min(gp);
+            }
+        }
+        for (i, xi) in node_pos.iter().enumerate() {
+            if (xi - wall.origin).dot(&wall.normal) <= on_plane && gap[i].is_finite() {
+                out.push(NodeContact {
+                    wall: w,
+                    node: i,
+                    dof: 2 * i + axis,
+                    sign,
+                    bound: dt * wall.velocity.dot(&wall.normal) - gap[i],
+                    active: false,
+                    force: 0.0,
+                });
+            }
+        }
+    }
+}
+
+/// One primal–dual active-set update from the displacement `u` and the residual `res`
+/// (which excludes contact forces). Returns whether the set changed.
+/// With `allow_release = false` (the first iteration of a warm-started step, whose
+/// residual is not yet meaningful) active contacts are kept.
+pub fn update_active_set(
+    contacts: &mut [NodeContact],
+    u: &[f64],
+    res: &[f64],
+    tol_gap: f64,
+    tol_force: f64,
+    allow_release: bool,
+) -> bool {
+    let mut changed = false;
+    for c in contacts.iter_mut() {
+        if c.active {
+            // R + f_c = 0 on the prescribed DOF.
+            c.force = -c.sign * res[c.dof];
+            if allow_release && c.force < -tol_force {
+                c.active = false;
+                c.force = 0.0;
+                changed = true;
+            }
+        } else if c.sign * u[c.dof] < c.bound - tol_gap {
+            c.active = true;
+            changed = true;
+        }
+    }
+    changed
+}
+
+/// Warm start: activates the contacts whose (grid node, wall) pair was active at the end
+/// of the previous step (`previous` sorted); `grid_id` maps active to grid nodes.
+pub fn warm_start(contacts: &mut [NodeContact], grid_id: &[usize], previous: &[(usize, usize)]) {
+    for c in contacts.iter_mut() {
+        c.active = previous.binary_search(&(grid_id[c.node], c.wall)).is_ok();
+    }
+}
+
+/// The (grid node, wall) pairs active at the end of this step, sorted.
+pub fn active_pairs(contacts: &[NodeContact], grid_id: &[usize], out: &mut Vec<(usize, usize)>) {
+    out.clear();
+    out.extend(
+        contacts
+            .iter()
+            .filter(|c| c.active)
+            .map(|c| (grid_id[c.node], c.wall)),
+    );
+    out.sort_unstable();
+}
+
+/// Target value of the prescribed DOF of an active contact.
+pub fn target(c: &NodeContact) -> f64 {
+    c.sign * c.bound
+}
+
+/// Sums the converged contact forces into the walls (force on the wall = minus force on the grain).
+pub fn commit(contacts: &[NodeContact], walls: &mut [Wall]) {
+    for w in walls.iter_mut() {
+        w.force = Vector2::zeros();
+        w.contacts = 0;
+    }
+    for c in contacts.iter().filter(|c| c.active) {
+        let w = &mut walls[c.wall];
+        w.force -= w.normal * c.force;
+        w.contacts += 1;
+    }
+}

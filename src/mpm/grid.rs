@@ -1,0 +1,62 @@
+//! Uniform background grid of square cells; node `(i, j)` sits at `origin + h (i, j)`.
+
+use super::shape::{MAX_PER_AXIS, ShapeKind, Stencil};
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Grid {
+    /// Position of node (0, 0) (m).
+    pub origin: Vector2<f64>,
+    /// Cell size `h_g` (m).
+    pub h: f64,
+    /// Number of nodes along x and y.
+    pub nx: usize,
+    pub ny: usize,
+}
+
+impl Grid {
+    pub fn node_count(&self) -> usize {
+        self.nx * self.ny
+    }
+
+    /// Position of node `id = j nx + i`.
+    pub fn node_position(&self, id: usize) -> Vector2<f64> {
+        let (i, j) = (id % self.nx, id / self.nx);
+        self.origin + Vector2::new(i as f64, j as f64) * self.h
+    }
+
+    /// Cell containing `x` (id `j (nx-1) + i`), or `None` outside the grid.
+    pub fn cell_of(&self, x: &Vector2<f64>) -> Option<usize> {
+        let g = (x - self.origin) / self.h;
+        let (i, j) = (g.x.floor(), g.y.floor());
+        if i < 0.0 || j < 0.0 || i >= (self.nx - 1) as f64 || j >= (self.ny - 1) as f64 {
+            return None;
+        }
+        Some(j as usize * (self.nx - 1) + i as usize)
+    }
+
+    /// Weights and gradients of a point at `x` with half-width `lp`; `None` if its
+    /// support leaves the grid.
+    pub fn stencil(&self, kind: ShapeKind, x: &Vector2<f64>, lp: f64) -> Option<Stencil> {
+        let g = (x - self.origin) / self.h;
+        let mut ax = [(0, 0.0, 0.0); MAX_PER_AXIS];
+        let mut ay = [(0, 0.0, 0.0); MAX_PER_AXIS];
+        let nx = kind.axis(g.x, self.h, lp, &mut ax);
+        let ny = kind.axis(g.y, self.h, lp, &mut ay);
+        let mut s = Stencil::default();
+        for &(j, wy, dy) in &ay[..ny] {
+            for &(i, wx, dx) in &ax[..nx] {
+                if i < 0 || j < 0 || i >= self.nx as i64 || j >= self.ny as i64 {
+                    return None;
+                }
+                let k = s.len;
+                s.node[k] = j as usize * self.nx + i as usize;
+                s.w[k] = wx * wy;
+                s.grad[k] = Vector2::new(dx * wy, wx * dy);
+                s.len += 1;
+            }
+        }
+        Some(s)
+    }
+}

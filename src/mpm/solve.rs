@@ -1,0 +1,656 @@
+//! One implicit MPM step after Guilkey & Weiss (2003) (METHODS §3.3):
+//! P2G with lumped mass, Newton on the nodal displacement increment with the consistent
+//! tangent over the active nodes, sparse Cholesky, node contact by active set, then G2P.
+//!
+//! Optional B-bar (METHODS §6): each point's volumetric strain is replaced by the
+//! volume-weighted average over the points of its grid cell, in the kinematics, the
+//! internal force and the tangent: `B̄ = B + ½ m (d̄ - d)ᵀ` with `m = (1, 1, 0)` (the 2D
+//! dilatation, so plane strain `ε_zz = 0` is kept).
+
+use super::contact::{self, NodeContact, Wall};
+use super::error::MpmError;
+use super::grid::Grid;
+use super::material::Material;
+use super::newmark::Newmark;
+use super::points::{Points, Stress};
+use super::shape::{ShapeKind, Stencil};
+use super::sparse::SymSystem;
+use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector2};
+use serde::{Deserialize, Serialize};
+
+/// Newton tolerances (METHODS §3.3 step 7). Converged when the active set is unchanged,
+/// `‖R‖ <= tol_residual · max(‖f_int‖, ‖M a‖, ‖f_c‖)` and either
+/// `‖δu‖ <= tol_increment · ‖u‖` or `|δu·R| <= tol_energy · |δu₀·R₀|`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NewtonParams {
+    pub max_iterations: usize,
+    pub tol_residual: f64,
+    pub tol_increment: f64,
+    pub tol_energy: f64,
+}
+
+impl Default for NewtonParams {
+    fn default() -> Self {
+        NewtonParams {
+            max_iterations: 30,
+            tol_residual: 1e-8,
+            tol_increment: 1e-8,
+            tol_energy: 1e-12,
+        }
+    }
+}
+
+/// Numerical choices of the implicit step.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SolverParams {
+    pub shape: ShapeKind,
+    pub bbar: bool,
+    pub newmark: Newmark,
+    pub newton: NewtonParams,
+}
+
+impl Default for SolverParams {
+    fn default() -> Self {
+        SolverParams {
+            shape: ShapeKind::Bilinear,
+            bbar: true,
+            newmark: Newmark::default(),
+            newton: NewtonParams::default(),
+        }
+    }
+}
+
+/// What one step cost and found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepStats {
+    pub iterations: usize,
+    pub active_nodes: usize,
+    pub contacts: usize,
+    /// Final residual over its tolerance scale.
+    pub residual: f64,
+    /// Whether the symbolic factorisation had to be redone.
+    pub new_symbolic: bool,
+}
+
+/// Workspace of the implicit step; allocated once and reused (not part of any checkpoint).
+#[derive(Default)]
+pub struct Solver {
+    own: Vec<Stencil>,
+    key: Vec<usize>,
+    order: Vec<usize>,
+    union: Vec<usize>,
+    grp_off: Vec<usize>,
+    grp_nodes: Vec<usize>,
+    grp_pts_off: Vec<usize>,
+    pt_grp: Vec<usize>,
+    pt_off: Vec<usize>,
+    pt_w: Vec<f64>,
+    pt_g0: Vec<Vector2<f64>>,
+    pt_g: Vec<Vector2<f64>>,
+    dbar0: Vec<Vector2<f64>>,
+    dbar: Vec<Vector2<f64>>,
+    own_act: Vec<usize>,
+    own_off: Vec<usize>,
+    node_map: Vec<usize>,
+    act_grid: Vec<usize>,
+    node_pos: Vec<Vector2<f64>>,
+    m: Vec<f64>,
+    vn: Vec<Vector2<f64>>,
+    an: Vec<Vector2<f64>>,
+    u: Vec<f64>,
+    du: Vec<f64>,
+    res: Vec<f64>,
+    fint: Vec<f64>,
+    kfix: Vec<f64>,
+    dfix: Vec<f64>,
+    fixed: Vec<bool>,
+    trial_stress: Vec<Stress>,
+    trial_f: Vec<Matrix2<f64>>,
+    trial_vol: Vec<f64>,
+    tangent: Vec<Matrix3<f64>>,
+    sys: SymSystem,
+    pairs: Vec<(usize, usize)>,
+    contacts: Vec<NodeContact>,
+    prev_active: Vec<(usize, usize)>,
+    gap: Vec<f64>,
+    dbk: Vec<Matrix3x2<f64>>,
+    bk: Vec<Matrix3x2<f64>>,
+}
+
+fn vec2(u: &[f64], i: usize) -> Vector2<f64> {
+    Vector2::new(u[2 * i], u[2 * i + 1])
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+impl Solver {
+    /// Advances `points` by `dt` against `walls` (their forces are set on return).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        params: &SolverParams,
+        grid: &Grid,
+        material: &Material,
+        points: &mut Points,
+        walls: &mut [Wall],
+        dt: f64,
+        step: u64,
+    ) -> Result<StepStats, MpmError> {
+        self.connect(params, grid, points, step)?;
+        self.p2g(points);
+        let n = self.act_grid.len();
+        let nm = params.newmark;
+
+        // Wall contact candidates for this step.
+        {
+            let (own_act, own_off) = (&self.own_act, &self.own_off);
+            contact::detect(
+                walls,
+                grid,
+                points,
+                &self.node_pos,
+                |p| &own_act[own_off[p]..own_off[p + 1]],
+                dt,
+                &mut self.gap,
+                &mut self.contacts,
+            );
+            contact::warm_start(&mut self.contacts, &self.act_grid, &self.prev_active);
+        }
+
+        // Sparsity pattern: every pair of nodes sharing a point (or a B-bar cell).
+        self.pairs.clear();
+        for g in 0..self.grp_off.len() - 1 {
+            let nodes = &self.grp_nodes[self.grp_off[g]..self.grp_off[g + 1]];
+            for &a in nodes {
+                for &b in nodes {
+                    if a < b {
+                        self.pairs.push((a, b));
+                    }
+                }
+            }
+        }
+        self.sys.set_pattern(n, &mut self.pairs);
+
+        for i in 0..n {
+            let u0 = nm.predictor(self.vn[i], self.an[i], dt);
+            self.u[2 * i] = u0.x;
+            self.u[2 * i + 1] = u0.y;
+        }
+
+        let c1 = nm.mass_factor(dt);
+        let tol = params.newton;
+        let tol_gap = 1e-9 * grid.h;
+        let (mut energy0, mut last_energy, mut last_inc) = (0.0_f64, f64::INFINITY, f64::INFINITY);
+        let mut stats = StepStats {
+            new_symbolic: self.sys.new_symbolic,
+            ..StepStats::default()
+        };
+        let mut converged = false;
+        let mut changed = false;
+        let mut rel_res = f64::INFINITY;
+        for it in 0..=tol.max_iterations {
+            self.evaluate(params, material, points, step)?;
+            self.assemble(points, c1, true);
+            let mut inertia_sq = 0.0;
+            for i in 0..n {
+                let a = nm.accel(vec2(&self.u, i), self.vn[i], self.an[i], dt);
+                let ma = a * self.m[i];
+                inertia_sq += ma.norm_squared();
+                self.res[2 * i] = -self.fint[2 * i] - ma.x;
+                self.res[2 * i + 1] = -self.fint[2 * i + 1] - ma.y;
+            }
+            let scale0 = norm(&self.fint).max(inertia_sq.sqrt());
+            changed = contact::update_active_set(
+                &mut self.contacts,
+                &self.u,
+                &self.res,
+                tol_gap,
+                1e-10 * scale0.max(f64::MIN_POSITIVE),
+                it > 0,
+            );
+            self.fixed.iter_mut().for_each(|f| *f = false);
+            let mut fc_sq = 0.0;
+            for c in self.contacts.iter().filter(|c| c.active) {
+                self.fixed[c.dof] = true;
+                fc_sq += c.force * c.force;
+            }
+            let res_free: f64 = self
+                .res
+                .iter()
+                .zip(&self.fixed)
+                .filter(|(_, f)| !**f)
+                .map(|(r, _)| r * r)
+                .sum::<f64>()
+                .sqrt();
+            let floor = material.young * grid.h * 1e-6;
+            let scale = scale0.max(fc_sq.sqrt()).max(floor);
+            rel_res = res_free / scale;
+            let u_norm = norm(&self.u).max(1e-12 * grid.h);
+            let res_ok = rel_res <= tol.tol_residual;
+            let inc_ok = last_inc <= tol.tol_increment * u_norm;
+            let energy_ok = last_energy <= tol.tol_energy * energy0;
+            if !changed && res_ok && (it == 0 || inc_ok || energy_ok) {
+                stats.iterations = it;
+                converged = true;
+                break;
+            }
+            if it == tol.max_iterations {
+                break;
+            }
+            // Prescribed increments of the active contact DOFs, moved to the right-hand side.
+            self.dfix.iter_mut().for_each(|d| *d = 0.0);
+            for c in self.contacts.iter().filter(|c| c.active) {
+                self.dfix[c.dof] = contact::target(c) - self.u[c.dof];
+            }
+            if self.solve_increment().is_err() {
+                // The geometric stiffness of a pre-stressed grain can make the tangent
+                // indefinite while its supports are inactive: retry this iteration with
+                // the material part only (a modified Newton step).
+                self.assemble(points, c1, false);
+                self.solve_increment()
+                    .map_err(|reason| MpmError::LinearSolve { step, reason })?;
+            }
+            let e: f64 = self
+                .du
+                .iter()
+                .zip(&self.res)
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                .abs();
+            if it == 0 {
+                energy0 = e;
+            }
+            last_energy = e;
+            last_inc = norm(&self.du);
+            if !last_inc.is_finite() {
+                return Err(MpmError::NonFinite {
+                    step,
+                    quantity: "displacement increment",
+                });
+            }
+            for (u, d) in self.u.iter_mut().zip(&self.du) {
+                *u += d;
+            }
+        }
+        if !converged {
+            return Err(MpmError::NotConverged {
+                step,
+                iterations: tol.max_iterations,
+                residual: rel_res,
+                active_set_changing: changed,
+            });
+        }
+        stats.residual = rel_res;
+        stats.active_nodes = n;
+        stats.contacts = self.contacts.iter().filter(|c| c.active).count();
+        contact::commit(&self.contacts, walls);
+        contact::active_pairs(&self.contacts, &self.act_grid, &mut self.prev_active);
+        self.g2p(nm, points, dt);
+        Ok(stats)
+    }
+}
+
+impl Solver {
+    /// Stencils at `x^n`, B-bar groups, active nodes and their numbering.
+    fn connect(
+        &mut self,
+        params: &SolverParams,
+        grid: &Grid,
+        points: &Points,
+        step: u64,
+    ) -> Result<(), MpmError> {
+        let np = points.len();
+        self.own.clear();
+        self.key.clear();
+        for p in 0..np {
+            let s = grid
+                .stencil(params.shape, &points.x[p], points.half_size)
+                .ok_or(MpmError::OutOfGrid { step, point: p })?;
+            self.own.push(s);
+            let key = if params.bbar {
+                grid.cell_of(&points.x[p])
+                    .ok_or(MpmError::OutOfGrid { step, point: p })?
+            } else {
+                p
+            };
+            self.key.push(key);
+        }
+        self.order.clear();
+        self.order.extend(0..np);
+        let key = &self.key;
+        self.order.sort_by_key(|&p| key[p]);
+
+        // Groups of points sharing a key, each with the union of its points' nodes.
+        self.grp_off.clear();
+        self.grp_nodes.clear();
+        self.grp_pts_off.clear();
+        self.pt_grp.resize(np, 0);
+        self.pt_off.resize(np, 0);
+        self.pt_w.clear();
+        self.pt_g0.clear();
+        self.grp_off.push(0);
+        let mut start = 0;
+        while start < np {
+            let k = self.key[self.order[start]];
+            let mut end = start;
+            while end < np && self.key[self.order[end]] == k {
+                end += 1;
+            }
+            self.union.clear();
+            for &p in &self.order[start..end] {
+                let s = &self.own[p];
+                self.union.extend_from_slice(&s.node[..s.len]);
+            }
+            self.union.sort_unstable();
+            self.union.dedup();
+            let g = self.grp_off.len() - 1;
+            self.grp_pts_off.push(start);
+            for &p in &self.order[start..end] {
+                self.pt_grp[p] = g;
+                self.pt_off[p] = self.pt_w.len();
+                let s = &self.own[p];
+                for &node in &self.union {
+                    match s.node[..s.len].iter().position(|&x| x == node) {
+                        Some(q) => {
+                            self.pt_w.push(s.w[q]);
+                            self.pt_g0.push(s.grad[q]);
+                        }
+                        None => {
+                            self.pt_w.push(0.0);
+                            self.pt_g0.push(Vector2::zeros());
+                        }
+                    }
+                }
+            }
+            self.grp_nodes.extend_from_slice(&self.union);
+            self.grp_off.push(self.grp_nodes.len());
+            start = end;
+        }
+        self.grp_pts_off.push(np);
+
+        // Active nodes: every node reached with a positive weight (no small-mass cut; the
+        // lumped mass keeps K_eff positive definite), numbered in grid order.
+        if self.node_map.len() != grid.node_count() {
+            self.node_map = vec![usize::MAX; grid.node_count()];
+        } else {
+            for &g in &self.act_grid {
+                self.node_map[g] = usize::MAX;
+            }
+        }
+        self.act_grid.clear();
+        self.act_grid.extend_from_slice(&self.grp_nodes);
+        self.act_grid.sort_unstable();
+        self.act_grid.dedup();
+        for (i, &g) in self.act_grid.iter().enumerate() {
+            self.node_map[g] = i;
+        }
+        for g in self.grp_nodes.iter_mut() {
+            *g = self.node_map[*g];
+        }
+        self.node_pos.clear();
+        self.node_pos
+            .extend(self.act_grid.iter().map(|&g| grid.node_position(g)));
+        self.own_act.clear();
+        self.own_off.clear();
+        self.own_off.push(0);
+        for s in &self.own {
+            self.own_act
+                .extend(s.node[..s.len].iter().map(|&g| self.node_map[g]));
+            self.own_off.push(self.own_act.len());
+        }
+
+        let n = self.act_grid.len();
+        for v in [
+            &mut self.u,
+            &mut self.du,
+            &mut self.res,
+            &mut self.fint,
+            &mut self.kfix,
+            &mut self.dfix,
+        ] {
+            v.clear();
+            v.resize(2 * n, 0.0);
+        }
+        self.fixed.clear();
+        self.fixed.resize(2 * n, false);
+        self.pt_g.clear();
+        self.pt_g.resize(self.pt_g0.len(), Vector2::zeros());
+        self.dbar0.clear();
+        self.dbar0.resize(self.grp_nodes.len(), Vector2::zeros());
+        self.dbar.clear();
+        self.dbar.resize(self.grp_nodes.len(), Vector2::zeros());
+        self.trial_stress.resize(np, Stress::default());
+        self.trial_f.resize(np, Matrix2::identity());
+        self.trial_vol.resize(np, 0.0);
+        self.tangent.resize(np, Matrix3::zeros());
+        Ok(())
+    }
+
+    /// Lumped mass, velocity and acceleration on the active nodes; start-of-step `d̄`.
+    fn p2g(&mut self, points: &Points) {
+        let n = self.act_grid.len();
+        self.m.clear();
+        self.m.resize(n, 0.0);
+        self.vn.clear();
+        self.vn.resize(n, Vector2::zeros());
+        self.an.clear();
+        self.an.resize(n, Vector2::zeros());
+        for p in 0..points.len() {
+            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
+            let nodes = &self.grp_nodes[self.grp_off[g]..self.grp_off[g + 1]];
+            for (k, &i) in nodes.iter().enumerate() {
+                let wm = self.pt_w[off + k] * points.mass[p];
+                self.m[i] += wm;
+                self.vn[i] += points.v[p] * wm;
+                self.an[i] += points.a[p] * wm;
+            }
+        }
+        for i in 0..n {
+            self.vn[i] /= self.m[i];
+            self.an[i] /= self.m[i];
+        }
+        Self::average(
+            &self.grp_off,
+            &self.grp_pts_off,
+            &self.order,
+            &self.pt_off,
+            &self.pt_g0,
+            &points.vol,
+            &mut self.dbar0,
+        );
+    }
+
+    /// Volume-weighted average of the points' gradients over each group.
+    fn average(
+        grp_off: &[usize],
+        grp_pts_off: &[usize],
+        order: &[usize],
+        pt_off: &[usize],
+        grads: &[Vector2<f64>],
+        vol: &[f64],
+        out: &mut [Vector2<f64>],
+    ) {
+        for g in 0..grp_off.len() - 1 {
+            let (a, b) = (grp_off[g], grp_off[g + 1]);
+            out[a..b].iter_mut().for_each(|d| *d = Vector2::zeros());
+            let mut vsum = 0.0;
+            for &p in &order[grp_pts_off[g]..grp_pts_off[g + 1]] {
+                vsum += vol[p];
+                for k in 0..b - a {
+                    out[a + k] += grads[pt_off[p] + k] * vol[p];
+                }
+            }
+            out[a..b].iter_mut().for_each(|d| *d /= vsum);
+        }
+    }
+
+    /// Kinematics and stress at every point for the current iterate `u`.
+    fn evaluate(
+        &mut self,
+        params: &SolverParams,
+        material: &Material,
+        points: &Points,
+        step: u64,
+    ) -> Result<(), MpmError> {
+        for p in 0..points.len() {
+            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
+            let (a, b) = (self.grp_off[g], self.grp_off[g + 1]);
+            let mut l = Matrix2::zeros();
+            let mut tr_bar = 0.0;
+            for k in 0..b - a {
+                let u = vec2(&self.u, self.grp_nodes[a + k]);
+                l += u * self.pt_g0[off + k].transpose();
+                tr_bar += u.dot(&self.dbar0[a + k]);
+            }
+            if params.bbar {
+                l += Matrix2::identity() * (0.5 * (tr_bar - l.trace()));
+            }
+            let upd = material.update(&points.stress[p], &points.def_grad[p], &l);
+            let det = upd.def_grad.determinant();
+            if det.is_nan() || det <= 0.0 {
+                return Err(if det.is_finite() {
+                    MpmError::Inverted {
+                        step,
+                        point: p,
+                        det,
+                    }
+                } else {
+                    MpmError::NonFinite {
+                        step,
+                        quantity: "deformation gradient",
+                    }
+                });
+            }
+            if !upd.stress.is_finite() {
+                return Err(MpmError::NonFinite {
+                    step,
+                    quantity: "stress",
+                });
+            }
+            let dfit = (Matrix2::identity() + l)
+                .try_inverse()
+                .ok_or(MpmError::Inverted {
+                    step,
+                    point: p,
+                    det,
+                })?
+                .transpose();
+            for k in 0..b - a {
+                self.pt_g[off + k] = dfit * self.pt_g0[off + k];
+            }
+            self.trial_stress[p] = upd.stress;
+            self.trial_f[p] = upd.def_grad;
+            self.trial_vol[p] = det * points.vol0[p];
+            self.tangent[p] = upd.tangent;
+        }
+        // Without B-bar every group is one point, so d̄ = ∇S and B̄ = B.
+        Self::average(
+            &self.grp_off,
+            &self.grp_pts_off,
+            &self.order,
+            &self.pt_off,
+            &self.pt_g,
+            &self.trial_vol,
+            &mut self.dbar,
+        );
+        Ok(())
+    }
+
+    /// Internal force and effective stiffness `c1 M + Σ v (B̄ᵀ D B̄ + geometric)`.
+    fn assemble(&mut self, points: &Points, c1: f64, geometric: bool) {
+        self.fint.iter_mut().for_each(|f| *f = 0.0);
+        self.sys.zero();
+        for p in 0..points.len() {
+            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
+            let (a, b) = (self.grp_off[g], self.grp_off[g + 1]);
+            let v = self.trial_vol[p];
+            let sig = self.trial_stress[p];
+            let (sv, sm, d) = (sig.voigt(), sig.matrix(), self.tangent[p]);
+            self.bk.clear();
+            self.dbk.clear();
+            for k in 0..b - a {
+                let gk = self.pt_g[off + k];
+                let dk = self.dbar[a + k];
+                let (hx, hy) = (0.5 * (dk.x - gk.x), 0.5 * (dk.y - gk.y));
+                let bm = Matrix3x2::new(gk.x + hx, hy, hx, gk.y + hy, gk.y, gk.x);
+                let f = bm.transpose() * sv * v;
+                let i = self.grp_nodes[a + k];
+                self.fint[2 * i] += f.x;
+                self.fint[2 * i + 1] += f.y;
+                self.dbk.push(d * bm * v);
+                self.bk.push(bm);
+            }
+            for k in 0..b - a {
+                let i = self.grp_nodes[a + k];
+                let gk = self.pt_g[off + k];
+                for l in 0..b - a {
+                    let j = self.grp_nodes[a + l];
+                    if i < j {
+                        continue;
+                    }
+                    let geo = if geometric {
+                        v * gk.dot(&(sm * self.pt_g[off + l]))
+                    } else {
+                        0.0
+                    };
+                    let kij = self.bk[k].transpose() * self.dbk[l] + Matrix2::identity() * geo;
+                    self.sys.add_lower(i, j, &kij);
+                }
+            }
+        }
+        for i in 0..self.m.len() {
+            self.sys.add_diag(i, c1 * self.m[i]);
+        }
+        // Round-off guard for nodes reached with tiny weights (mass and stiffness both
+        // ~w²): a diagonal shift in the Newton matrix only, so the converged state is
+        // unchanged.
+        let shift = 1e-10
+            * (0..2 * self.m.len())
+                .map(|d| self.sys.diag(d))
+                .fold(0.0, f64::max);
+        for i in 0..self.m.len() {
+            self.sys.add_diag(i, shift);
+        }
+    }
+
+    /// Newton increment `du` from the residual `res`, with the DOFs of active contacts
+    /// prescribed to `dfix` (their coupling moved to the right-hand side).
+    fn solve_increment(&mut self) -> Result<(), String> {
+        self.sys.matvec(&self.dfix, &mut self.kfix);
+        for d in 0..self.du.len() {
+            self.du[d] = if self.fixed[d] {
+                self.sys.diag(d) * self.dfix[d]
+            } else {
+                self.res[d] - self.kfix[d]
+            };
+        }
+        self.sys.solve(&self.fixed, &mut self.du)
+    }
+
+    /// Grid to points at convergence (METHODS §3.3 step 8, FLIP-type Newmark update).
+    fn g2p(&mut self, nm: Newmark, points: &mut Points, dt: f64) {
+        for p in 0..points.len() {
+            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
+            let (a, b) = (self.grp_off[g], self.grp_off[g + 1]);
+            let (mut du, mut acc) = (Vector2::zeros(), Vector2::zeros());
+            for k in 0..b - a {
+                let w = self.pt_w[off + k];
+                if w == 0.0 {
+                    continue;
+                }
+                let i = self.grp_nodes[a + k];
+                let u = vec2(&self.u, i);
+                du += u * w;
+                acc += nm.accel(u, self.vn[i], self.an[i], dt) * w;
+            }
+            points.x[p] += du;
+            points.v[p] = nm.velocity(points.v[p], points.a[p], acc, dt);
+            points.a[p] = acc;
+            points.stress[p] = self.trial_stress[p];
+            points.def_grad[p] = self.trial_f[p];
+            points.vol[p] = self.trial_vol[p];
+        }
+    }
+}
