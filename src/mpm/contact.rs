@@ -1,13 +1,19 @@
 //! Node contact: every contact that acts on a grain through its grid nodes lives here.
 //!
 //! Today: rigid walls (plates) as partners of infinite mass with an imposed velocity
-//! (METHODS §3.4, §4.5). A node takes part when it carries grain mass and lies on or
-//! behind the wall plane (where the wall's own field would cover it). Its gap is measured
-//! from the material points it sees, `g_i = min_{p: S_ip > 0} ((x_p - x_w)·n - l_p)`.
-//! Signorini is imposed on the end-of-step gap,
-//! `g_i + n·(u_i - Δt V_w) >= 0  ⊥  f_n >= 0`,
-//! which for `γ = 1/2` is the velocity Signorini of Eq. 11 with the gap closed within the
-//! step (so an overlap left by interpolation is removed, not kept). For a single grain the
+//! (METHODS §3.4, §4.5). A node takes part when it carries grain mass and lies behind the
+//! wall plane or less than half a cell in front of it: the row nearest the wall and every
+//! row behind it. (With the rows behind only, the material between the plate and the
+//! first row inside, up to a cell thick, was held by small weights alone; Newton cycled
+//! and points were crushed after 0.9 h_g of plate travel.) Its gap is measured
+//! from the material points it sees, `g_i = min_{p: S_ip > 0} ((x_p - x_w)·n - l_p)`, with
+//! `l_p` the point's reach toward the wall (clipped by the seeded circle, see `Points`).
+//! Signorini is imposed on the end-of-step gap with existing overlaps left alone,
+//! `max(g_i, 0) + n·(u_i - Δt V_w) >= 0  ⊥  f_n >= 0`,
+//! i.e. the gap-anticipated velocity Signorini of METHODS §1.4/§4.3 written on the
+//! increment. Correcting overlaps (`g_i` instead of `max(g_i, 0)`) was tried and is
+//! unstable: a node sees the overlap of one point but moves it only by its weight
+//! `S_ip < 1`, so the correction feeds back with a gain `1/S_ip`. For a single grain the
 //! node conditions are solved exactly inside Newton by a primal–dual active set: an active
 //! node has its normal displacement prescribed and its force read from the residual; it is
 //! released when that force turns tensile, and activated when its gap would close. This is
@@ -78,7 +84,7 @@ pub struct NodeContact {
     pub dof: usize,
     /// `n` along the DOF axis (±1).
     pub sign: f64,
-    /// Lower bound on `sign · u_dof`: `Δt V_w·n - g_i`.
+    /// Lower bound on `sign · u_dof`: `Δt V_w·n - max(g_i, 0)`.
     pub bound: f64,
     pub active: bool,
     /// Normal force on the grain (N/m), valid while active.
@@ -101,25 +107,27 @@ pub fn detect<'a>(
     out: &mut Vec<NodeContact>,
 ) {
     out.clear();
-    let on_plane = 1e-9 * grid.h;
+    let reach = 0.5 * grid.h;
     for (w, wall) in walls.iter().enumerate() {
         let (axis, sign) = wall.axis();
+        // The point's reach toward the wall, i.e. along -n.
+        let toward = 2 * axis + usize::from(sign < 0.0);
         gap.clear();
         gap.resize(node_pos.len(), f64::INFINITY);
         for p in 0..points.len() {
-            let gp = (points.x[p] - wall.origin).dot(&wall.normal) - points.half_size;
+            let gp = (points.x[p] - wall.origin).dot(&wall.normal) - points.reach(p, toward);
             for &i in point_nodes(p) {
                 gap[i] = gap[i].min(gp);
             }
         }
         for (i, xi) in node_pos.iter().enumerate() {
-            if (xi - wall.origin).dot(&wall.normal) <= on_plane && gap[i].is_finite() {
+            if (xi - wall.origin).dot(&wall.normal) <= reach && gap[i].is_finite() {
                 out.push(NodeContact {
                     wall: w,
                     node: i,
                     dof: 2 * i + axis,
                     sign,
-                    bound: dt * wall.velocity.dot(&wall.normal) - gap[i],
+                    bound: dt * wall.velocity.dot(&wall.normal) - gap[i].max(0.0),
                     active: false,
                     force: 0.0,
                 });

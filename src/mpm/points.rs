@@ -47,8 +47,12 @@ pub struct Points {
     pub vol: Vec<f64>,
     pub def_grad: Vec<Matrix2<f64>>,
     pub stress: Vec<Stress>,
-    /// Half-width `l_p` of every point's domain (uGIMP width, gaps and the grain width).
+    /// Half-width `l_p` of every point's domain (uGIMP width).
     pub half_size: f64,
+    /// Initial distance from the point to its domain's edge toward `-x, +x, -y, +y`:
+    /// `l_p`, clipped by the seeded circle, so that gaps and widths see the circle rather
+    /// than the staircase of cells. Stretched with `F` (see [`Points::reach`]).
+    pub extent: Vec<[f64; 4]>,
 }
 
 impl Points {
@@ -80,15 +84,21 @@ impl Points {
             .sum()
     }
 
-    /// Largest horizontal extent `max(x_p + l_p) - min(x_p - l_p)` (m).
+    /// Current reach of point `p` from its centre toward the axis direction `dir`
+    /// (0: -x, 1: +x, 2: -y, 3: +y): the initial extent times the stretch `|F e_axis|`.
+    pub fn reach(&self, p: usize, dir: usize) -> f64 {
+        self.extent[p][dir] * self.def_grad[p].column(dir / 2).norm()
+    }
+
+    /// Largest horizontal extent `max(x_p + l_p) - min(x_p - l_p)` (m), with the
+    /// directional reach in place of `l_p`.
     pub fn width(&self) -> f64 {
-        let (lo, hi) = self
-            .x
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                (lo.min(x.x), hi.max(x.x))
-            });
-        hi - lo + 2.0 * self.half_size
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in 0..self.len() {
+            lo = lo.min(self.x[p].x - self.reach(p, 0));
+            hi = hi.max(self.x[p].x + self.reach(p, 1));
+        }
+        hi - lo
     }
 
     /// Seeds a disk of `radius` centred at `centre`: 2×2 points per cell of `grid` at the
@@ -108,6 +118,22 @@ impl Points {
         }
         let n = x.len();
         let area = std::f64::consts::PI * radius * radius / n as f64;
+        let lp = 0.5 * dr;
+        // Distance from a point inside the circle to the circle along ±x and ±y.
+        let chord = |a: f64| (radius * radius - a * a).max(0.0).sqrt();
+        let extent = x
+            .iter()
+            .map(|p| {
+                let d = p - centre;
+                let (cx, cy) = (chord(d.y), chord(d.x));
+                [
+                    lp.min(d.x + cx),
+                    lp.min(cx - d.x),
+                    lp.min(d.y + cy),
+                    lp.min(cy - d.y),
+                ]
+            })
+            .collect();
         Points {
             v: vec![Vector2::zeros(); n],
             a: vec![Vector2::zeros(); n],
@@ -116,7 +142,8 @@ impl Points {
             vol: vec![area; n],
             def_grad: vec![Matrix2::identity(); n],
             stress: vec![Stress::default(); n],
-            half_size: 0.5 * dr,
+            half_size: lp,
+            extent,
             x,
         }
     }
