@@ -46,8 +46,8 @@ impl Material {
         ((l + 2.0 * m) / self.density).sqrt()
     }
 
-    /// Plane-strain elasticity in Voigt form.
-    fn elastic_matrix(&self) -> Matrix3<f64> {
+    /// Plane-strain elasticity in Voigt form (engineering shear).
+    pub fn elastic_matrix(&self) -> Matrix3<f64> {
         let (l, m) = self.lame();
         Matrix3::new(l + 2.0 * m, l, 0.0, l, l + 2.0 * m, 0.0, 0.0, 0.0, m)
     }

@@ -200,7 +200,7 @@ impl Solver {
         let mut rel_res = f64::INFINITY;
         for it in 0..=tol.max_iterations {
             self.evaluate(params, material, points, step)?;
-            self.assemble(points, c1, true);
+            self.assemble(points, material, c1, true);
             let mut inertia_sq = 0.0;
             for i in 0..n {
                 let a = nm.accel(vec2(&self.u, i), self.vn[i], self.an[i], dt);
@@ -253,10 +253,11 @@ impl Solver {
                 self.dfix[c.dof] = contact::target(c) - self.u[c.dof];
             }
             if self.solve_increment().is_err() {
-                // The geometric stiffness of a pre-stressed grain can make the tangent
-                // indefinite while its supports are inactive: retry this iteration with
-                // the material part only (a modified Newton step).
-                self.assemble(points, c1, false);
+                // The geometric and stress-dependent parts of the tangent of a pre-stressed
+                // grain can make it indefinite (supports inactive, or stresses of order μ
+                // at large strain): retry this iteration with the initial elastic tangent
+                // (a modified Newton step).
+                self.assemble(points, material, c1, false);
                 self.solve_increment()
                     .map_err(|reason| MpmError::LinearSolve { step, reason })?;
             }
@@ -610,8 +611,11 @@ impl Solver {
         Ok(())
     }
 
-    /// Internal force and effective stiffness `c1 M + Σ v (B̄ᵀ D B̄ + geometric)`.
-    fn assemble(&mut self, points: &Points, c1: f64, geometric: bool) {
+    /// Internal force and effective stiffness `c1 M + Σ v (B̄ᵀ D B̄ + geometric)`; with
+    /// `consistent = false`, `D` is the initial elastic matrix and the geometric part is
+    /// left out, which is always positive definite.
+    fn assemble(&mut self, points: &Points, material: &Material, c1: f64, consistent: bool) {
+        let elastic = material.elastic_matrix();
         self.fint.iter_mut().for_each(|f| *f = 0.0);
         self.sys.zero();
         for p in 0..points.len() {
@@ -619,7 +623,8 @@ impl Solver {
             let (a, b) = (self.grp_off[g], self.grp_off[g + 1]);
             let v = self.trial_vol[p];
             let sig = self.trial_stress[p];
-            let (sv, sm, d) = (sig.voigt(), sig.matrix(), self.tangent[p]);
+            let d = if consistent { self.tangent[p] } else { elastic };
+            let (sv, sm) = (sig.voigt(), sig.matrix());
             self.bk.clear();
             self.dbk.clear();
             for k in 0..b - a {
@@ -642,7 +647,7 @@ impl Solver {
                     if i < j {
                         continue;
                     }
-                    let geo = if geometric {
+                    let geo = if consistent {
                         v * gk.dot(&(sm * self.pt_g[off + l]))
                     } else {
                         0.0
