@@ -138,8 +138,7 @@ pub fn detect<'a>(
 
 /// One primal–dual active-set update from the displacement `u` and the residual `res`
 /// (which excludes contact forces). Returns whether the set changed.
-/// With `allow_release = false` (the first iteration of a warm-started step, whose
-/// residual is not yet meaningful) active contacts are kept.
+/// With `allow_release = false` active contacts are kept (see `Solver::step`).
 pub fn update_active_set(
     contacts: &mut [NodeContact],
     u: &[f64],

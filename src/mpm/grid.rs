@@ -26,14 +26,21 @@ impl Grid {
         self.origin + Vector2::new(i as f64, j as f64) * self.h
     }
 
-    /// Cell containing `x` (id `j (nx-1) + i`), or `None` outside the grid.
-    pub fn cell_of(&self, x: &Vector2<f64>) -> Option<usize> {
+    /// B-bar group of a point at `x`: the cell containing it for the bilinear and uGIMP
+    /// bases, the cell centred on its nearest node for the quadratic B-spline (so that all
+    /// points of a group share one 3×3 stencil). `None` outside the grid.
+    pub fn bbar_group(&self, kind: ShapeKind, x: &Vector2<f64>) -> Option<usize> {
+        let shift = if kind == ShapeKind::BSpline2 {
+            0.5
+        } else {
+            0.0
+        };
         let g = (x - self.origin) / self.h;
-        let (i, j) = (g.x.floor(), g.y.floor());
-        if i < 0.0 || j < 0.0 || i >= (self.nx - 1) as f64 || j >= (self.ny - 1) as f64 {
+        let (i, j) = ((g.x - shift).floor(), (g.y - shift).floor());
+        if i < 0.0 || j < 0.0 || i >= self.nx as f64 || j >= self.ny as f64 {
             return None;
         }
-        Some(j as usize * (self.nx - 1) + i as usize)
+        Some(j as usize * self.nx + i as usize)
     }
 
     /// Weights and gradients of a point at `x` with half-width `lp`; `None` if its

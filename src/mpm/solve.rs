@@ -3,7 +3,8 @@
 //! tangent over the active nodes, sparse Cholesky, node contact by active set, then G2P.
 //!
 //! Optional B-bar (METHODS §6): each point's volumetric strain is replaced by the
-//! volume-weighted average over the points of its grid cell, in the kinematics, the
+//! volume-weighted average over the points of its grid cell (for B-splines, the cell
+//! centred on its nearest node, so that a group shares one stencil), in the kinematics, the
 //! internal force and the tangent: `B̄ = B + ½ m (d̄ - d)ᵀ` with `m = (1, 1, 0)` (the 2D
 //! dilatation, so plane strain `ε_zz = 0` is kept).
 
@@ -216,7 +217,10 @@ impl Solver {
                 &self.res,
                 tol_gap,
                 1e-10 * scale0.max(f64::MIN_POSITIVE),
-                it > 0,
+                // Releases are allowed after the first iteration (whose residual is not
+                // yet meaningful) and frozen in the last third, so a cycling set can
+                // only grow and must settle.
+                it > 0 && it < 2 * tol.max_iterations / 3,
             );
             self.fixed.iter_mut().for_each(|f| *f = false);
             let mut fc_sq = 0.0;
@@ -239,7 +243,8 @@ impl Solver {
             let res_ok = rel_res <= tol.tol_residual;
             let inc_ok = last_inc <= tol.tol_increment * u_norm;
             let energy_ok = last_energy <= tol.tol_energy * energy0;
-            if !changed && res_ok && (it == 0 || inc_ok || energy_ok) {
+            let first_ok = it == 0 && self.contacts.iter().all(|c| !c.active);
+            if !changed && res_ok && (first_ok || inc_ok || energy_ok) {
                 stats.iterations = it;
                 converged = true;
                 break;
@@ -319,7 +324,7 @@ impl Solver {
                 .ok_or(MpmError::OutOfGrid { step, point: p })?;
             self.own.push(s);
             let key = if params.bbar {
-                grid.cell_of(&points.x[p])
+                grid.bbar_group(params.shape, &points.x[p])
                     .ok_or(MpmError::OutOfGrid { step, point: p })?
             } else {
                 p
