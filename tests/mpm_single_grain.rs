@@ -198,8 +198,8 @@ fn failures_are_typed_errors() {
     }
 }
 
-/// The paper's grain (Δr/R = 0.029) to 30 % strain: within 5 % of Johnson at ε = 0.02.
-/// About 3 s in release; run with `cargo test --release -- --ignored`.
+/// The paper's grain (Δr/R = 0.029, B-spline) to 30 % strain: within 5 % of Johnson at
+/// ε = 0.02 and 0.05. About 10 s in release; `cargo test --release -- --ignored`.
 #[test]
 #[ignore]
 fn paper_grain_to_thirty_percent() {
@@ -209,7 +209,7 @@ fn paper_grain_to_thirty_percent() {
     let f2 = force_at(&out.rows, 0.02);
     assert!((f2 / johnson_force(e, nu, r, 0.02).unwrap() - 1.0).abs() < 0.05);
     let f5 = force_at(&out.rows, 0.05);
-    assert!((f5 / johnson_force(e, nu, r, 0.05).unwrap() - 1.0).abs() < 0.1);
+    assert!((f5 / johnson_force(e, nu, r, 0.05).unwrap() - 1.0).abs() < 0.05);
     assert!(out.rows.last().unwrap().strain >= 0.3 - 1e-12);
 }
 

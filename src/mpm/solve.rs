@@ -1,28 +1,27 @@
 //! One implicit MPM step after Guilkey & Weiss (2003) (METHODS §3.3):
-//! P2G with lumped mass, Newton on the nodal displacement increment with the consistent
-//! tangent over the active nodes, sparse Cholesky, node contact by active set, then G2P.
+//! P2G with lumped mass, Newton on the nodal displacement increment with the (nearly)
+//! consistent tangent over the active nodes, sparse Cholesky, node contact by active set,
+//! then G2P.
 //!
-//! Optional B-bar (METHODS §6): each point's volumetric strain is replaced by the
-//! volume-weighted average over the points of its grid cell (for B-splines, the cell
-//! centred on its nearest node, so that a group shares one stencil), in the kinematics, the
-//! internal force and the tangent: `B̄ = B + ½ m (d̄ - d)ᵀ` with `m = (1, 1, 0)` (the 2D
-//! dilatation, so plane strain `ε_zz = 0` is kept).
+//! Optional B-bar (METHODS §6): the dilatation of each point's increment is replaced by
+//! the volume-weighted average over the points of its grid cell (for B-splines, the cell
+//! centred on its nearest node, so that a group shares one stencil), taken in the
+//! start-of-step configuration: `L̄ = L + ½ (tr L̄_cell - tr L) I` (2D dilatation, so plane
+//! strain `ε_zz = 0` is kept). The internal force is the derivative of these kinematics,
+//! `f_i = Σ v (σ ∇S_i + ½ tr(σ ΔF̄^{-T}) h_i)` with `h = d̄ - ∇S` at `x^n`, and the tangent
+//! carries the matching geometric terms.
 
+use super::connect::Connectivity;
 use super::contact::{self, NodeContact, Wall};
 use super::error::MpmError;
 use super::grid::Grid;
 use super::material::Material;
 use super::newmark::Newmark;
 use super::points::{Points, Stress};
-use super::shape::{ShapeKind, Stencil};
+use super::shape::ShapeKind;
 use super::sparse::SymSystem;
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Vector2};
 use serde::{Deserialize, Serialize};
-
-/// Nodes lighter than this fraction of the mean nodal mass are dropped (METHODS §6
-/// suggests about 1e-8; uGIMP and B-splines needed a larger cut for Newton's increments
-/// to converge, see `Solver::drop_light_nodes`).
-pub const LIGHT_NODE: f64 = 1e-4;
 
 /// Newton tolerances (METHODS §3.3 step 7). Converged when the active set is unchanged,
 /// `‖R‖ <= tol_residual · max(‖f_int‖, ‖M a‖, ‖f_c‖)` and either
@@ -87,27 +86,11 @@ pub struct StepStats {
 /// Workspace of the implicit step; allocated once and reused (not part of any checkpoint).
 #[derive(Default)]
 pub struct Solver {
-    own: Vec<Stencil>,
-    node_mass: Vec<f64>,
-    key: Vec<usize>,
-    order: Vec<usize>,
-    union: Vec<usize>,
-    grp_off: Vec<usize>,
-    grp_nodes: Vec<usize>,
-    grp_pts_off: Vec<usize>,
-    pt_grp: Vec<usize>,
-    pt_off: Vec<usize>,
-    pt_w: Vec<f64>,
-    pt_g0: Vec<Vector2<f64>>,
+    conn: Connectivity,
     pt_g: Vec<Vector2<f64>>,
     dbar0: Vec<Vector2<f64>>,
     /// `tr(σ ΔF̄^{-T})`, the pressure-like factor of the B-bar internal force.
     trial_tr: Vec<f64>,
-    own_act: Vec<usize>,
-    own_off: Vec<usize>,
-    node_map: Vec<usize>,
-    act_grid: Vec<usize>,
-    node_pos: Vec<Vector2<f64>>,
     m: Vec<f64>,
     vn: Vec<Vector2<f64>>,
     an: Vec<Vector2<f64>>,
@@ -153,31 +136,33 @@ impl Solver {
         dt: f64,
         step: u64,
     ) -> Result<StepStats, MpmError> {
-        self.connect(params, grid, points, step)?;
+        self.conn
+            .build(params.shape, params.bbar, grid, points, step)?;
+        self.resize(points.len());
         self.p2g(points);
-        let n = self.act_grid.len();
+        let n = self.conn.act_grid.len();
         let nm = params.newmark;
 
         // Wall contact candidates for this step.
         {
-            let (own_act, own_off) = (&self.own_act, &self.own_off);
+            let (own_act, own_off) = (&self.conn.own_act, &self.conn.own_off);
             contact::detect(
                 walls,
                 grid,
                 points,
-                &self.node_pos,
+                &self.conn.node_pos,
                 |p| &own_act[own_off[p]..own_off[p + 1]],
                 dt,
                 &mut self.gap,
                 &mut self.contacts,
             );
-            contact::warm_start(&mut self.contacts, &self.act_grid, &self.prev_active);
+            contact::warm_start(&mut self.contacts, &self.conn.act_grid, &self.prev_active);
         }
 
         // Sparsity pattern: every pair of nodes sharing a point (or a B-bar cell).
         self.pairs.clear();
-        for g in 0..self.grp_off.len() - 1 {
-            let nodes = &self.grp_nodes[self.grp_off[g]..self.grp_off[g + 1]];
+        for g in 0..self.conn.grp_off.len() - 1 {
+            let nodes = &self.conn.grp_nodes[self.conn.grp_off[g]..self.conn.grp_off[g + 1]];
             for &a in nodes {
                 for &b in nodes {
                     if a < b {
@@ -318,123 +303,16 @@ impl Solver {
         stats.active_nodes = n;
         stats.contacts = self.contacts.iter().filter(|c| c.active).count();
         contact::commit(&self.contacts, walls);
-        contact::active_pairs(&self.contacts, &self.act_grid, &mut self.prev_active);
+        contact::active_pairs(&self.contacts, &self.conn.act_grid, &mut self.prev_active);
         self.g2p(nm, points, dt);
         Ok(stats)
     }
 }
 
 impl Solver {
-    /// Stencils at `x^n`, B-bar groups, active nodes and their numbering.
-    fn connect(
-        &mut self,
-        params: &SolverParams,
-        grid: &Grid,
-        points: &Points,
-        step: u64,
-    ) -> Result<(), MpmError> {
-        let np = points.len();
-        self.own.clear();
-        self.key.clear();
-        for p in 0..np {
-            let s = grid
-                .stencil(params.shape, &points.x[p], points.half_size)
-                .ok_or(MpmError::OutOfGrid { step, point: p })?;
-            self.own.push(s);
-            let key = if params.bbar {
-                grid.bbar_group(params.shape, &points.x[p])
-                    .ok_or(MpmError::OutOfGrid { step, point: p })?
-            } else {
-                p
-            };
-            self.key.push(key);
-        }
-        self.drop_light_nodes(grid, points);
-        self.order.clear();
-        self.order.extend(0..np);
-        let key = &self.key;
-        self.order.sort_by_key(|&p| key[p]);
-
-        // Groups of points sharing a key, each with the union of its points' nodes.
-        self.grp_off.clear();
-        self.grp_nodes.clear();
-        self.grp_pts_off.clear();
-        self.pt_grp.resize(np, 0);
-        self.pt_off.resize(np, 0);
-        self.pt_w.clear();
-        self.pt_g0.clear();
-        self.grp_off.push(0);
-        let mut start = 0;
-        while start < np {
-            let k = self.key[self.order[start]];
-            let mut end = start;
-            while end < np && self.key[self.order[end]] == k {
-                end += 1;
-            }
-            self.union.clear();
-            for &p in &self.order[start..end] {
-                let s = &self.own[p];
-                self.union.extend_from_slice(&s.node[..s.len]);
-            }
-            self.union.sort_unstable();
-            self.union.dedup();
-            let g = self.grp_off.len() - 1;
-            self.grp_pts_off.push(start);
-            for &p in &self.order[start..end] {
-                self.pt_grp[p] = g;
-                self.pt_off[p] = self.pt_w.len();
-                let s = &self.own[p];
-                for &node in &self.union {
-                    match s.node[..s.len].iter().position(|&x| x == node) {
-                        Some(q) => {
-                            self.pt_w.push(s.w[q]);
-                            self.pt_g0.push(s.grad[q]);
-                        }
-                        None => {
-                            self.pt_w.push(0.0);
-                            self.pt_g0.push(Vector2::zeros());
-                        }
-                    }
-                }
-            }
-            self.grp_nodes.extend_from_slice(&self.union);
-            self.grp_off.push(self.grp_nodes.len());
-            start = end;
-        }
-        self.grp_pts_off.push(np);
-
-        // Active nodes: every node left in a stencil (light ones were dropped above),
-        // numbered in grid order.
-        if self.node_map.len() != grid.node_count() {
-            self.node_map = vec![usize::MAX; grid.node_count()];
-        } else {
-            for &g in &self.act_grid {
-                self.node_map[g] = usize::MAX;
-            }
-        }
-        self.act_grid.clear();
-        self.act_grid.extend_from_slice(&self.grp_nodes);
-        self.act_grid.sort_unstable();
-        self.act_grid.dedup();
-        for (i, &g) in self.act_grid.iter().enumerate() {
-            self.node_map[g] = i;
-        }
-        for g in self.grp_nodes.iter_mut() {
-            *g = self.node_map[*g];
-        }
-        self.node_pos.clear();
-        self.node_pos
-            .extend(self.act_grid.iter().map(|&g| grid.node_position(g)));
-        self.own_act.clear();
-        self.own_off.clear();
-        self.own_off.push(0);
-        for s in &self.own {
-            self.own_act
-                .extend(s.node[..s.len].iter().map(|&g| self.node_map[g]));
-            self.own_off.push(self.own_act.len());
-        }
-
-        let n = self.act_grid.len();
+    /// Sizes the per-node and per-point buffers after `Connectivity::build`.
+    fn resize(&mut self, np: usize) {
+        let n = self.conn.act_grid.len();
         for v in [
             &mut self.u,
             &mut self.du,
@@ -449,63 +327,20 @@ impl Solver {
         self.fixed.clear();
         self.fixed.resize(2 * n, false);
         self.pt_g.clear();
-        self.pt_g.resize(self.pt_g0.len(), Vector2::zeros());
+        self.pt_g.resize(self.conn.pt_g0.len(), Vector2::zeros());
         self.dbar0.clear();
-        self.dbar0.resize(self.grp_nodes.len(), Vector2::zeros());
+        self.dbar0
+            .resize(self.conn.grp_nodes.len(), Vector2::zeros());
         self.trial_tr.resize(np, 0.0);
         self.trial_stress.resize(np, Stress::default());
         self.trial_f.resize(np, Matrix2::identity());
         self.trial_vol.resize(np, 0.0);
         self.tangent.resize(np, Matrix3::zeros());
-        Ok(())
-    }
-
-    /// Removes nodes whose lumped mass is below `LIGHT_NODE` of the mean nodal mass from
-    /// the stencils, renormalising the weights and shifting the gradients so that
-    /// `Σ S = 1` and `Σ ∇S = 0` still hold (momentum stays exact). Such nodes have mass
-    /// and stiffness ~S² and make Newton's increments stall without moving any point.
-    fn drop_light_nodes(&mut self, grid: &Grid, points: &Points) {
-        self.node_mass.clear();
-        self.node_mass.resize(grid.node_count(), 0.0);
-        let (mut total, mut count) = (0.0, 0usize);
-        for (p, s) in self.own.iter().enumerate() {
-            for k in 0..s.len {
-                if self.node_mass[s.node[k]] == 0.0 {
-                    count += 1;
-                }
-                self.node_mass[s.node[k]] += s.w[k] * points.mass[p];
-                total += s.w[k] * points.mass[p];
-            }
-        }
-        let cut = LIGHT_NODE * total / count.max(1) as f64;
-        for s in self.own.iter_mut() {
-            let mut k = 0;
-            let mut dropped = false;
-            while k < s.len {
-                if self.node_mass[s.node[k]] < cut {
-                    s.len -= 1;
-                    s.node[k] = s.node[s.len];
-                    s.w[k] = s.w[s.len];
-                    s.grad[k] = s.grad[s.len];
-                    dropped = true;
-                } else {
-                    k += 1;
-                }
-            }
-            if dropped {
-                let wsum: f64 = s.w[..s.len].iter().sum();
-                let gsum: Vector2<f64> = s.grad[..s.len].iter().sum();
-                for k in 0..s.len {
-                    s.w[k] /= wsum;
-                    s.grad[k] -= gsum * s.w[k];
-                }
-            }
-        }
     }
 
     /// Lumped mass, velocity and acceleration on the active nodes; start-of-step `d̄`.
     fn p2g(&mut self, points: &Points) {
-        let n = self.act_grid.len();
+        let n = self.conn.act_grid.len();
         self.m.clear();
         self.m.resize(n, 0.0);
         self.vn.clear();
@@ -513,10 +348,10 @@ impl Solver {
         self.an.clear();
         self.an.resize(n, Vector2::zeros());
         for p in 0..points.len() {
-            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
-            let nodes = &self.grp_nodes[self.grp_off[g]..self.grp_off[g + 1]];
+            let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+            let nodes = &self.conn.grp_nodes[self.conn.grp_off[g]..self.conn.grp_off[g + 1]];
             for (k, &i) in nodes.iter().enumerate() {
-                let wm = self.pt_w[off + k] * points.mass[p];
+                let wm = self.conn.pt_w[off + k] * points.mass[p];
                 self.m[i] += wm;
                 self.vn[i] += points.v[p] * wm;
                 self.an[i] += points.a[p] * wm;
@@ -526,39 +361,8 @@ impl Solver {
             self.vn[i] /= self.m[i];
             self.an[i] /= self.m[i];
         }
-        Self::average(
-            &self.grp_off,
-            &self.grp_pts_off,
-            &self.order,
-            &self.pt_off,
-            &self.pt_g0,
-            &points.vol,
-            &mut self.dbar0,
-        );
-    }
-
-    /// Volume-weighted average of the points' gradients over each group.
-    fn average(
-        grp_off: &[usize],
-        grp_pts_off: &[usize],
-        order: &[usize],
-        pt_off: &[usize],
-        grads: &[Vector2<f64>],
-        vol: &[f64],
-        out: &mut [Vector2<f64>],
-    ) {
-        for g in 0..grp_off.len() - 1 {
-            let (a, b) = (grp_off[g], grp_off[g + 1]);
-            out[a..b].iter_mut().for_each(|d| *d = Vector2::zeros());
-            let mut vsum = 0.0;
-            for &p in &order[grp_pts_off[g]..grp_pts_off[g + 1]] {
-                vsum += vol[p];
-                for k in 0..b - a {
-                    out[a + k] += grads[pt_off[p] + k] * vol[p];
-                }
-            }
-            out[a..b].iter_mut().for_each(|d| *d /= vsum);
-        }
+        self.conn
+            .average(&self.conn.pt_g0, &points.vol, &mut self.dbar0);
     }
 
     /// Kinematics and stress at every point for the current iterate `u`.
@@ -570,13 +374,13 @@ impl Solver {
         step: u64,
     ) -> Result<(), MpmError> {
         for p in 0..points.len() {
-            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
-            let (a, b) = (self.grp_off[g], self.grp_off[g + 1]);
+            let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+            let (a, b) = (self.conn.grp_off[g], self.conn.grp_off[g + 1]);
             let mut l = Matrix2::zeros();
             let mut tr_bar = 0.0;
             for k in 0..b - a {
-                let u = vec2(&self.u, self.grp_nodes[a + k]);
-                l += u * self.pt_g0[off + k].transpose();
+                let u = vec2(&self.u, self.conn.grp_nodes[a + k]);
+                l += u * self.conn.pt_g0[off + k].transpose();
                 tr_bar += u.dot(&self.dbar0[a + k]);
             }
             if params.bbar {
@@ -613,7 +417,7 @@ impl Solver {
                 })?
                 .transpose();
             for k in 0..b - a {
-                self.pt_g[off + k] = dfit * self.pt_g0[off + k];
+                self.pt_g[off + k] = dfit * self.conn.pt_g0[off + k];
             }
             self.trial_tr[p] = (upd.stress.matrix() * dfit).trace();
             self.trial_stress[p] = upd.stress;
@@ -632,8 +436,8 @@ impl Solver {
         self.fint.iter_mut().for_each(|f| *f = 0.0);
         self.sys.zero();
         for p in 0..points.len() {
-            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
-            let (a, b) = (self.grp_off[g], self.grp_off[g + 1]);
+            let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+            let (a, b) = (self.conn.grp_off[g], self.conn.grp_off[g + 1]);
             let v = self.trial_vol[p];
             let sig = self.trial_stress[p];
             let d = if consistent { self.tangent[p] } else { elastic };
@@ -645,12 +449,12 @@ impl Solver {
                 let gk = self.pt_g[off + k];
                 // B-bar: the dilatation of the increment is the group average, taken in
                 // the start-of-step configuration like the kinematics (h = d̄ - ∇S there).
-                let h = self.dbar0[a + k] - self.pt_g0[off + k];
+                let h = self.dbar0[a + k] - self.conn.pt_g0[off + k];
                 let (hx, hy) = (0.5 * h.x, 0.5 * h.y);
                 let bm = Matrix3x2::new(gk.x + hx, hy, hx, gk.y + hy, gk.y, gk.x);
                 // Energy-consistent force v (σ ΔF̄^{-T} ∇S^n + ½ tr(σ ΔF̄^{-T}) h).
                 let f = (sm * gk + h * (0.5 * self.trial_tr[p])) * v;
-                let i = self.grp_nodes[a + k];
+                let i = self.conn.grp_nodes[a + k];
                 self.fint[2 * i] += f.x;
                 self.fint[2 * i + 1] += f.y;
                 self.dbk.push(d * bm * v);
@@ -658,11 +462,11 @@ impl Solver {
                 self.hk.push(h);
             }
             for k in 0..b - a {
-                let i = self.grp_nodes[a + k];
+                let i = self.conn.grp_nodes[a + k];
                 let gk = self.pt_g[off + k];
                 let (sgk, hk) = (sm * gk, self.hk[k]);
                 for l in 0..b - a {
-                    let j = self.grp_nodes[a + l];
+                    let j = self.conn.grp_nodes[a + l];
                     if i < j {
                         continue;
                     }
@@ -712,15 +516,15 @@ impl Solver {
     /// Grid to points at convergence (METHODS §3.3 step 8, FLIP-type Newmark update).
     fn g2p(&mut self, nm: Newmark, points: &mut Points, dt: f64) {
         for p in 0..points.len() {
-            let (g, off) = (self.pt_grp[p], self.pt_off[p]);
-            let (a, b) = (self.grp_off[g], self.grp_off[g + 1]);
+            let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+            let (a, b) = (self.conn.grp_off[g], self.conn.grp_off[g + 1]);
             let (mut du, mut acc) = (Vector2::zeros(), Vector2::zeros());
             for k in 0..b - a {
-                let w = self.pt_w[off + k];
+                let w = self.conn.pt_w[off + k];
                 if w == 0.0 {
                     continue;
                 }
-                let i = self.grp_nodes[a + k];
+                let i = self.conn.grp_nodes[a + k];
                 let u = vec2(&self.u, i);
                 du += u * w;
                 acc += nm.accel(u, self.vn[i], self.an[i], dt) * w;
