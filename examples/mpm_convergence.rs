@@ -94,7 +94,7 @@ fn main() {
                 );
                 let last = out.rows.last().expect("rows");
                 println!(
-                    "       final: ε = {:.3}, F = {:.0} N/m (top {:.0}, bottom {:.0}), L/2R = {:.3}, σ = {:.3} MPa, max von Mises {:.2} MPa, area/πR² = {:.4}, {:.1} Newton iterations/step",
+                    "       final: ε = {:.3}, F = {:.0} N/m (top {:.0}, bottom {:.0}), L/2R = {:.3}, σ = {:.3} MPa, max von Mises {:.2} MPa, area/πR² = {:.4}, {:.1} Newton iterations/step, {} symbolic factorisations",
                     last.strain,
                     0.5 * (last.force_top + last.force_bottom),
                     last.force_top,
@@ -103,7 +103,8 @@ fn main() {
                     last.sigma * 1e-6,
                     out.points.von_mises.iter().cloned().fold(0.0, f64::max) * 1e-6,
                     out.points.volume.iter().sum::<f64>() / (std::f64::consts::PI * rad * rad),
-                    s.newton_iterations as f64 / s.steps as f64
+                    s.newton_iterations as f64 / s.steps as f64,
+                    s.symbolic_factorisations
                 );
             }
             Err(err) => println!("{r}: {err}"),
