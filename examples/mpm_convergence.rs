@@ -1,10 +1,11 @@
 //! Refinement study of the single MPM grain against Johnson's 2D solution and Eq. 13.
 //!
-//! `cargo run --release --example mpm_convergence -- [resolutions] [shape] [bbar] [final_strain]`
-//! e.g. `-- 0.08,0.04,0.029 bilinear on 0.05`. Prints a table; nothing is written.
+//! `cargo run --release --example mpm_convergence -- [resolutions] [shape] [bbar] [final_strain]
+//! [travel_per_step] [material]`, e.g. `-- 0.08,0.04,0.029 bilinear on 0.05 0.05 neohookean`.
+//! Prints a table; nothing is written.
 
 use softgrain::mpm::analytic::{eq13_force, johnson_force};
-use softgrain::mpm::{Control, ShapeKind, SingleGrainParams, run_single_grain};
+use softgrain::mpm::{Control, MaterialKind, ShapeKind, SingleGrainParams, run_single_grain};
 
 /// Linear interpolation of the mean plate force at `strain`.
 fn force_at(rows: &[softgrain::mpm::Row], strain: f64) -> f64 {
@@ -42,6 +43,10 @@ fn main() {
         .get(5)
         .map(|s| s.parse().expect("travel"))
         .unwrap_or(0.05);
+    let kind = match args.get(6).map(String::as_str) {
+        Some("neohookean") => MaterialKind::NeoHookean,
+        _ => MaterialKind::LinearElastic,
+    };
     println!(
         "shape {shape:?}, B-bar {bbar}, final strain {final_strain}, travel/step {travel} h_g"
     );
@@ -69,6 +74,7 @@ fn main() {
         p.solver.bbar = bbar;
         p.final_strain = final_strain;
         p.travel_per_step = travel;
+        p.material.kind = kind;
         let (e, nu, rad) = (p.material.young, p.material.poisson, p.radius);
         match run_single_grain(p, |_| Control::Continue) {
             Ok(out) => {
