@@ -214,8 +214,11 @@ impl SingleGrain {
         let r = params.radius;
         let n = (1.0 / params.resolution).round().max(4.0);
         let h = 2.0 * r / n;
-        // Room for the widening grain (about 1.4 × 2R at 30 %) plus the shape support.
-        let half = ((1.6 * r / h).ceil() as usize) + 4;
+        // Room for the widening grain: a rectangle of the grain's area at the final plate
+        // gap is (π/4) R e^ε wide on each side; the bulge needs more (1.16 × 2R at 30 %).
+        let half_width =
+            r * (1.6_f64).max(1.5 * std::f64::consts::FRAC_PI_4 * params.final_strain.exp());
+        let half = ((half_width / h).ceil() as usize) + 4;
         let grid = Grid {
             origin: Vector2::new(-(half as f64) * h, -4.0 * h),
             h,

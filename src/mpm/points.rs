@@ -18,11 +18,6 @@ impl Stress {
         Matrix2::new(self.xx, self.xy, self.xy, self.yy)
     }
 
-    /// Voigt vector `(σxx, σyy, σxy)`.
-    pub fn voigt(&self) -> nalgebra::Vector3<f64> {
-        nalgebra::Vector3::new(self.xx, self.yy, self.xy)
-    }
-
     /// Von Mises stress including `σzz` (plane strain).
     pub fn von_mises(&self) -> f64 {
         let (a, b, c) = (self.xx - self.yy, self.yy - self.zz, self.zz - self.xx);
