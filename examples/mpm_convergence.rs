@@ -100,7 +100,7 @@ fn main() {
                 );
                 let last = out.rows.last().expect("rows");
                 println!(
-                    "       final: ε = {:.3}, F = {:.0} N/m (top {:.0}, bottom {:.0}), L/2R = {:.3}, σ = {:.3} MPa, max von Mises {:.2} MPa, area/πR² = {:.4}, {:.1} Newton iterations/step, {} symbolic factorisations",
+                    "       final: ε = {:.3}, F = {:.0} N/m (top {:.0}, bottom {:.0}), L/2R = {:.3}, σ = {:.3} MPa, max von Mises {:.2} MPa, area/πR² = {:.4}, {:.1} Newton iterations/step, {} symbolic factorisations, {} halved steps",
                     last.strain,
                     0.5 * (last.force_top + last.force_bottom),
                     last.force_top,
@@ -110,7 +110,8 @@ fn main() {
                     out.points.von_mises.iter().cloned().fold(0.0, f64::max) * 1e-6,
                     out.points.volume.iter().sum::<f64>() / (std::f64::consts::PI * rad * rad),
                     s.newton_iterations as f64 / s.steps as f64,
-                    s.symbolic_factorisations
+                    s.symbolic_factorisations,
+                    s.halvings
                 );
             }
             Err(err) => println!("{r}: {err}"),

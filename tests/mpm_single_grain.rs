@@ -190,8 +190,9 @@ fn failures_are_typed_errors() {
             ..
         })
     ));
+    // No Newton iteration allowed: even the halved steps cannot converge.
     let mut p = params(0.08, 0.02);
-    p.solver.newton.max_iterations = 1;
+    p.solver.newton.max_iterations = 0;
     match run_single_grain(p, |_| Control::Continue) {
         Err(MpmError::NotConverged { step: 0, .. }) => {}
         other => panic!("expected NotConverged at step 0, got {other:?}"),
@@ -211,6 +212,21 @@ fn paper_grain_to_thirty_percent() {
     let f5 = force_at(&out.rows, 0.05);
     assert!((f5 / johnson_force(e, nu, r, 0.05).unwrap() - 1.0).abs() < 0.05);
     assert!(out.rows.last().unwrap().strain >= 0.3 - 1e-12);
+}
+
+#[test]
+fn a_failed_step_is_redone_in_halves() {
+    let base = run_single_grain(params(0.08, 0.021), |_| Control::Continue).unwrap();
+    assert_eq!(base.stats.halvings, 0);
+    // Too few Newton iterations for a full step, enough for half steps.
+    let mut p = params(0.08, 0.021);
+    p.solver.newton.max_iterations = 3;
+    let out = run_single_grain(p, |_| Control::Continue).unwrap();
+    assert!(out.stats.halvings > 0);
+    assert_eq!(out.rows.len(), base.rows.len());
+    let (a, b) = (force_at(&base.rows, 0.02), force_at(&out.rows, 0.02));
+    // The halved steps are solved with Δt/2: 1.3 % apart on this coarse grid.
+    assert!((a / b - 1.0).abs() < 0.03, "{a} vs {b}");
 }
 
 #[test]

@@ -140,6 +140,8 @@ pub struct RunStats {
     pub newton_iterations: u64,
     pub max_newton_iterations: usize,
     pub symbolic_factorisations: u64,
+    /// Steps redone as two half steps after a failed Newton solve.
+    pub halvings: u64,
     /// Wall-clock time spent in `step` (s).
     pub wall_seconds: f64,
 }
@@ -171,9 +173,26 @@ pub struct SingleGrainResult {
     pub stopped_early: bool,
 }
 
-/// Solver workspace: rebuilt after a clone or a restore, never checkpointed.
+/// Most halvings of a failed step (down to `Δt/8`).
+pub const MAX_HALVINGS: u32 = 3;
+
+/// Solver cost of one recorded step, summed over its sub-steps.
 #[derive(Default)]
-struct Workspace(Solver);
+struct StepCost {
+    iterations: usize,
+    max_iterations: usize,
+    symbolic: u64,
+    halvings: u64,
+}
+
+/// Solver workspace and the copy of the state a failed step is restored from: rebuilt
+/// after a clone or a restore, never checkpointed.
+#[derive(Default)]
+struct Workspace {
+    solver: Solver,
+    points: Points,
+    walls: Vec<Wall>,
+}
 
 impl Clone for Workspace {
     fn clone(&self) -> Self {
@@ -272,26 +291,15 @@ impl SingleGrain {
         self.strain() >= self.params.final_strain - 1e-12
     }
 
-    /// Advances one time step and records its row.
+    /// Advances one time step and records its row. A step whose Newton solve fails
+    /// (no convergence, an inverted point, an indefinite matrix) is redone as two half
+    /// steps, down to `Δt / 2^MAX_HALVINGS`, before the error is returned.
     pub fn step(&mut self) -> Result<Row, MpmError> {
         let clock = std::time::Instant::now();
         let step = self.stats.steps;
-        let dt = self.dt;
-        let st = self.workspace.0.step(
-            &self.params.solver,
-            &self.grid,
-            &self.params.material,
-            &mut self.points,
-            &mut self.walls,
-            dt,
-            step,
-        )?;
-        for w in self.walls.iter_mut() {
-            // Work done on the grain: the grain feels -force.
-            self.supplied_energy -= w.force.dot(&w.velocity) * dt;
-            w.origin += w.velocity * dt;
-        }
-        self.time += dt;
+        let mut cost = StepCost::default();
+        self.advance(self.dt, step, 0, &mut cost)?;
+        self.time += self.dt;
         let ke = self.points.kinetic_energy();
         if !ke.is_finite() {
             return Err(MpmError::NonFinite {
@@ -317,15 +325,64 @@ impl SingleGrain {
             force_bottom: fb,
             width,
             sigma: 0.5 * (ft + fb) / width,
-            iterations: st.iterations,
+            iterations: cost.iterations,
         };
         self.rows.push(row);
         self.stats.steps += 1;
-        self.stats.newton_iterations += st.iterations as u64;
-        self.stats.max_newton_iterations = self.stats.max_newton_iterations.max(st.iterations);
-        self.stats.symbolic_factorisations += st.new_symbolic as u64;
+        self.stats.newton_iterations += cost.iterations as u64;
+        self.stats.max_newton_iterations =
+            self.stats.max_newton_iterations.max(cost.max_iterations);
+        self.stats.symbolic_factorisations += cost.symbolic;
+        self.stats.halvings += cost.halvings;
         self.stats.wall_seconds += clock.elapsed().as_secs_f64();
         Ok(row)
+    }
+
+    /// One solver step of `dt`, halved recursively on a failed solve.
+    fn advance(
+        &mut self,
+        dt: f64,
+        step: u64,
+        depth: u32,
+        cost: &mut StepCost,
+    ) -> Result<(), MpmError> {
+        let ws = &mut self.workspace;
+        ws.points.clone_from(&self.points);
+        ws.walls.clone_from(&self.walls);
+        let result = ws.solver.step(
+            &self.params.solver,
+            &self.grid,
+            &self.params.material,
+            &mut self.points,
+            &mut self.walls,
+            dt,
+            step,
+        );
+        match result {
+            Ok(st) => {
+                for w in self.walls.iter_mut() {
+                    // Work done on the grain: the grain feels -force.
+                    self.supplied_energy -= w.force.dot(&w.velocity) * dt;
+                    w.origin += w.velocity * dt;
+                }
+                cost.iterations += st.iterations;
+                cost.max_iterations = cost.max_iterations.max(st.iterations);
+                cost.symbolic += u64::from(st.new_symbolic);
+                Ok(())
+            }
+            Err(
+                MpmError::NotConverged { .. }
+                | MpmError::Inverted { .. }
+                | MpmError::LinearSolve { .. },
+            ) if depth < MAX_HALVINGS => {
+                self.points.clone_from(&self.workspace.points);
+                self.walls.clone_from(&self.workspace.walls);
+                cost.halvings += 1;
+                self.advance(0.5 * dt, step, depth + 1, cost)?;
+                self.advance(0.5 * dt, step, depth + 1, cost)
+            }
+            Err(err) => Err(err),
+        }
     }
 
     pub fn point_state(&self) -> PointState {

@@ -46,6 +46,8 @@
 //!   point is pulled back by halving. About 5 Newton iterations per step to 30 % strain.
 //! * **Plate force.** `σ = F/L` uses the mean of the two plate forces; both are recorded.
 //! * **Time step.** Chosen from the plate travel per step (default 0.05 h_g), not from CFL.
+//!   A step whose Newton solve fails is redone as two half steps (at most 3 halvings,
+//!   counted in `RunStats::halvings`) before the error is returned.
 
 pub mod analytic;
 pub mod connect;

@@ -30,7 +30,7 @@ impl Stress {
 }
 
 /// All material points of one grain (SoA). Units: m, m/s, m/s², kg/m, m²/m (area).
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Points {
     pub x: Vec<Vector2<f64>>,
     pub v: Vec<Vector2<f64>>,
