@@ -245,3 +245,37 @@ fn the_guard_reports_energy_growth_and_non_finite_state() {
     g.points.stress[7].xx = f64::NAN;
     assert!(matches!(g.step(), Err(MpmError::NonFinite { step: 0, .. })));
 }
+
+#[test]
+fn wall_friction_obeys_coulomb_and_barely_stiffens_compression() {
+    let f_smooth = force_at(&run(params(0.08, 0.051)), 0.05);
+    let mut p = params(0.08, 0.051);
+    p.wall_friction = 0.3;
+    let f_rough = force_at(&run(p), 0.05);
+    // Friction only resists the spreading of the contact: measured +0.4 %.
+    assert!(
+        f_rough >= 0.999 * f_smooth && f_rough < 1.05 * f_smooth,
+        "{f_rough} vs {f_smooth}"
+    );
+
+    // A top plate sliding sideways drags the grain through friction, never beyond μ f_n.
+    for mu in [0.0, 0.1] {
+        let mut p = params(0.08, 0.03);
+        p.wall_friction = mu;
+        let mut g = SingleGrain::new(p).unwrap();
+        g.walls[1].velocity.x = 0.2;
+        let mut dragged = false;
+        while !g.is_done() {
+            g.step().unwrap();
+            for w in &g.walls {
+                let (ft, fn_) = (w.force.x.abs(), w.normal_force());
+                assert!(
+                    ft <= mu * fn_ * (1.0 + 1e-9) + 1e-9,
+                    "μ {mu}: |F_t| {ft} > μ F_n {fn_}"
+                );
+                dragged |= ft > 1e-3 * fn_;
+            }
+        }
+        assert_eq!(dragged, mu > 0.0);
+    }
+}

@@ -19,7 +19,11 @@
 //! released when that force turns tensile, and activated when its gap would close. This is
 //! the condensed (exact Delassus) solution of §4.4B rather than the mass-only `W = Δt/(2m)`
 //! fixed point, which converges slowly at the large steps used here.
-//! Walls are frictionless and axis-aligned (normals `±e_x`, `±e_y`).
+//! Walls are axis-aligned (normals `±e_x`, `±e_y`). Coulomb friction (optional, off by
+//! default) uses the same active set on the tangential DOF: a sticking node has its
+//! tangential displacement prescribed to the wall's and its force read from the residual;
+//! when that force exceeds `μ f_n` the node slides, loaded by `μ f_n` (lagged by one
+//! Newton iteration) against its slip, and sticks again if the slip reverses.
 //!
 //! Grain–grain contact at shared nodes (Eqs. 11–12) is to grow in this file.
 
@@ -28,7 +32,7 @@ use super::points::Points;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
-/// A rigid, frictionless, axis-aligned wall moving at an imposed velocity.
+/// A rigid, axis-aligned wall moving at an imposed velocity, with Coulomb friction.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Wall {
     /// A point of the wall plane (m).
@@ -37,6 +41,9 @@ pub struct Wall {
     pub normal: Vector2<f64>,
     /// Imposed velocity (m/s).
     pub velocity: Vector2<f64>,
+    /// Coulomb friction coefficient with the grain (0: frictionless, the paper's
+    /// assumption for the single grain, METHODS §2.3).
+    pub friction: f64,
     /// Force exerted by the grain on the wall over the last step (N/m).
     pub force: Vector2<f64>,
     /// Nodes in contact at the end of the last step.
@@ -44,11 +51,13 @@ pub struct Wall {
 }
 
 impl Wall {
+    /// A frictionless wall.
     pub fn new(origin: Vector2<f64>, normal: Vector2<f64>, velocity: Vector2<f64>) -> Wall {
         Wall {
             origin,
             normal,
             velocity,
+            friction: 0.0,
             force: Vector2::zeros(),
             contacts: 0,
         }
@@ -89,6 +98,15 @@ pub struct NodeContact {
     pub active: bool,
     /// Normal force on the grain (N/m), valid while active.
     pub force: f64,
+    /// Tangential DOF `2 node + (1 - axis)`, its target `Δt V_w·t` while sticking.
+    pub tdof: usize,
+    pub tbound: f64,
+    pub friction: f64,
+    /// Stick (tangential DOF prescribed) or slip in direction `slip` (±1).
+    pub stick: bool,
+    pub slip: f64,
+    /// Tangential force on the grain along `+e_(1-axis)` (N/m).
+    pub tforce: f64,
 }
 
 /// Finds the wall contact candidates of this step.
@@ -130,6 +148,12 @@ pub fn detect<'a>(
                     bound: dt * wall.velocity.dot(&wall.normal) - gap[i].max(0.0),
                     active: false,
                     force: 0.0,
+                    tdof: 2 * i + 1 - axis,
+                    tbound: dt * wall.velocity[1 - axis],
+                    friction: wall.friction,
+                    stick: true,
+                    slip: 0.0,
+                    tforce: 0.0,
                 });
             }
         }
@@ -138,7 +162,8 @@ pub fn detect<'a>(
 
 /// One primal–dual active-set update from the displacement `u` and the residual `res`
 /// (which excludes contact forces). Returns whether the set changed.
-/// With `allow_release = false` active contacts are kept (see `Solver::step`).
+/// With `allow_release = false` active contacts are kept and sticking ones do not start
+/// to slide (see `Solver::step`).
 pub fn update_active_set(
     contacts: &mut [NodeContact],
     u: &[f64],
@@ -159,10 +184,61 @@ pub fn update_active_set(
             }
         } else if c.sign * u[c.dof] < c.bound - tol_gap {
             c.active = true;
+            c.stick = true;
             changed = true;
+        }
+        if !c.active || c.friction == 0.0 {
+            c.tforce = 0.0;
+            continue;
+        }
+        // Coulomb: stick while |f_t| <= μ f_n, else slide against the force.
+        let limit = c.friction * c.force.max(0.0);
+        if c.stick {
+            c.tforce = -res[c.tdof];
+            if allow_release && c.tforce.abs() > limit + tol_force {
+                c.stick = false;
+                c.slip = -c.tforce.signum();
+                changed = true;
+            }
+        } else if (u[c.tdof] - c.tbound) * c.slip < -tol_gap {
+            // The slip reversed: stick again.
+            c.stick = true;
+            changed = true;
+        }
+        if !c.stick {
+            c.tforce = -limit * c.slip;
         }
     }
     changed
+}
+
+/// Prescribes the DOFs of the active contacts (normal, and tangential while sticking):
+/// `fixed[d]` and the increment `dfix[d]` still needed to reach the target; adds the
+/// sliding friction forces to `res`. Returns the squared norm of the contact forces.
+pub fn constrain(
+    contacts: &[NodeContact],
+    u: &[f64],
+    res: &mut [f64],
+    fixed: &mut [bool],
+    dfix: &mut [f64],
+) -> f64 {
+    fixed.iter_mut().for_each(|f| *f = false);
+    dfix.iter_mut().for_each(|d| *d = 0.0);
+    let mut sq = 0.0;
+    for c in contacts.iter().filter(|c| c.active) {
+        fixed[c.dof] = true;
+        dfix[c.dof] = c.sign * c.bound - u[c.dof];
+        if c.friction > 0.0 {
+            if c.stick {
+                fixed[c.tdof] = true;
+                dfix[c.tdof] = c.tbound - u[c.tdof];
+            } else {
+                res[c.tdof] += c.tforce;
+            }
+        }
+        sq += c.force * c.force + c.tforce * c.tforce;
+    }
+    sq
 }
 
 /// Warm start: activates the contacts whose (grid node, wall) pair was active at the end
@@ -185,11 +261,6 @@ pub fn active_pairs(contacts: &[NodeContact], grid_id: &[usize], out: &mut Vec<(
     out.sort_unstable();
 }
 
-/// Target value of the prescribed DOF of an active contact.
-pub fn target(c: &NodeContact) -> f64 {
-    c.sign * c.bound
-}
-
 /// Sums the converged contact forces into the walls (force on the wall = minus force on the grain).
 pub fn commit(contacts: &[NodeContact], walls: &mut [Wall]) {
     for w in walls.iter_mut() {
@@ -198,7 +269,9 @@ pub fn commit(contacts: &[NodeContact], walls: &mut [Wall]) {
     }
     for c in contacts.iter().filter(|c| c.active) {
         let w = &mut walls[c.wall];
-        w.force -= w.normal * c.force;
+        let mut t = Vector2::zeros();
+        t[c.tdof % 2] = 1.0;
+        w.force -= w.normal * c.force + t * c.tforce;
         w.contacts += 1;
     }
 }

@@ -23,6 +23,8 @@ pub struct SingleGrainParams {
     pub wall_velocity: f64,
     /// Cumulative strain `ln(h0/h)` at which the run stops.
     pub final_strain: f64,
+    /// Coulomb friction between the grain and both plates (paper: not stated, assumed 0).
+    pub wall_friction: f64,
     pub solver: SolverParams,
     /// Plate travel per step as a fraction of `h_g` (METHODS §6: 0.05–0.1).
     pub travel_per_step: f64,
@@ -47,6 +49,7 @@ impl SingleGrainParams {
             resolution: 0.029,
             wall_velocity: 0.2,
             final_strain: 0.3,
+            wall_friction: 0.0,
             solver: SolverParams::default(),
             travel_per_step: 0.05,
             quasi_static_start: true,
@@ -78,6 +81,9 @@ impl SingleGrainParams {
         }
         if !(self.final_strain > 0.0 && self.final_strain < 1.0) {
             return bad("final_strain", "must lie in (0, 1)");
+        }
+        if self.wall_friction.is_nan() || self.wall_friction < 0.0 {
+            return bad("wall_friction", "must be >= 0");
         }
         if !(self.travel_per_step > 0.0 && self.travel_per_step <= 0.5) {
             return bad("travel_per_step", "must lie in (0, 0.5]");
@@ -252,7 +258,7 @@ impl SingleGrain {
                 vp.y = -v * x.y / h0;
             }
         }
-        let walls = vec![
+        let mut walls = vec![
             Wall::new(Vector2::zeros(), Vector2::new(0.0, 1.0), Vector2::zeros()),
             Wall::new(
                 Vector2::new(0.0, h0),
@@ -260,6 +266,9 @@ impl SingleGrain {
                 Vector2::new(0.0, -v),
             ),
         ];
+        for w in walls.iter_mut() {
+            w.friction = params.wall_friction;
+        }
         let stats = RunStats {
             points: points.len(),
             cell_size: h,

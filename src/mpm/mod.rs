@@ -17,7 +17,8 @@
 //!   are dropped and the points' weights renormalised (partition of unity and `Σ ∇S = 0`
 //!   kept, so momentum stays exact); the Newton matrix gets a diagonal shift of 1e-10 of
 //!   its largest diagonal (the residual does not, so the converged state is unaffected).
-//! * **Wall contact** (`contact.rs`). Frictionless rigid plates of infinite mass, applied at
+//! * **Wall contact** (`contact.rs`). Rigid plates of infinite mass, frictionless by default
+//!   (`SingleGrainParams::wall_friction` adds Coulomb friction), applied at
 //!   the nodes behind the plate or less than half a cell in front of it, with the gap
 //!   measured from the points; the wall normal is the contact normal. Signorini on the
 //!   end-of-step gap without pushing existing overlaps apart, solved exactly inside Newton

@@ -225,12 +225,13 @@ impl Solver {
                 // only grow and must settle.
                 it > 0 && it < 2 * tol.max_iterations / 3,
             );
-            self.fixed.iter_mut().for_each(|f| *f = false);
-            let mut fc_sq = 0.0;
-            for c in self.contacts.iter().filter(|c| c.active) {
-                self.fixed[c.dof] = true;
-                fc_sq += c.force * c.force;
-            }
+            let fc_sq = contact::constrain(
+                &self.contacts,
+                &self.u,
+                &mut self.res,
+                &mut self.fixed,
+                &mut self.dfix,
+            );
             let res_free: f64 = self
                 .res
                 .iter()
@@ -254,11 +255,6 @@ impl Solver {
             }
             if it == tol.max_iterations {
                 break;
-            }
-            // Prescribed increments of the active contact DOFs, moved to the right-hand side.
-            self.dfix.iter_mut().for_each(|d| *d = 0.0);
-            for c in self.contacts.iter().filter(|c| c.active) {
-                self.dfix[c.dof] = contact::target(c) - self.u[c.dof];
             }
             if self.solve_increment().is_err() {
                 // The geometric and stress-dependent parts of the tangent of a pre-stressed
