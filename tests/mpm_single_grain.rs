@@ -146,6 +146,12 @@ fn a_checkpointed_run_resumes_to_the_same_state() {
         whole.step().unwrap();
         first.step().unwrap();
     }
+    // The checkpoint store's format (bincode 2 over serde), and JSON.
+    let cfg = bincode::config::standard();
+    let bytes = bincode::serde::encode_to_vec(&first, cfg).unwrap();
+    let (from_bincode, _): (SingleGrain, usize) =
+        bincode::serde::decode_from_slice(&bytes, cfg).unwrap();
+    assert_eq!(from_bincode.points.x, first.points.x);
     let saved = serde_json::to_string(&first).unwrap();
     let mut resumed: SingleGrain = serde_json::from_str(&saved).unwrap();
     while !whole.is_done() {
