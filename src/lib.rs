@@ -6,6 +6,7 @@ pub mod cd;
 pub mod config;
 pub mod geom;
 pub mod io;
+pub mod mpm;
 pub mod packing;
 pub mod pipeline;
 pub mod rng;

@@ -1,0 +1,236 @@
+//! Symmetric sparse effective stiffness over the active nodes, assembled in 2×2 node blocks,
+//! factorised by faer's sparse Cholesky with the symbolic analysis kept while the pattern
+//! is unchanged (METHODS §3.3 steps 5–6).
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, Par, Side};
+use nalgebra::Matrix2;
+
+/// Lower-triangular block storage: block `(I, J)` with `I <= J` holds
+/// `B[r][c] = K[2J + r][2I + c]`.
+#[derive(Default)]
+pub struct SymSystem {
+    n_nodes: usize,
+    block_col: Vec<usize>,
+    block_row: Vec<usize>,
+    blocks: Vec<Matrix2<f64>>,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    /// For each CSC value: `4 * block + 2 * r + c`.
+    src: Vec<usize>,
+    val: Vec<f64>,
+    /// AMD ordering and supernodal structure (faer's simplicial heuristic picked the
+    /// slower path for these 2D grid matrices: 54 % of the run time).
+    symbolic: Option<SymbolicCholesky<usize>>,
+    factor: Vec<f64>,
+    factor_mem: Option<MemBuffer>,
+    solve_mem: Option<MemBuffer>,
+    /// Whether the last `set_pattern` had to redo the symbolic analysis.
+    pub new_symbolic: bool,
+}
+
+impl SymSystem {
+    /// Sets the block pattern from node pairs `(I, J)`, `I <= J` (consumed; diagonal added).
+    pub fn set_pattern(&mut self, n_nodes: usize, pairs: &mut Vec<(usize, usize)>) {
+        pairs.extend((0..n_nodes).map(|i| (i, i)));
+        pairs.sort_unstable();
+        pairs.dedup();
+        self.n_nodes = n_nodes;
+        self.block_col.clear();
+        self.block_row.clear();
+        self.block_col.push(0);
+        let mut col = 0;
+        for &(i, j) in pairs.iter() {
+            while col < i {
+                self.block_col.push(self.block_row.len());
+                col += 1;
+            }
+            self.block_row.push(j);
+        }
+        while self.block_col.len() <= n_nodes {
+            self.block_col.push(self.block_row.len());
+        }
+        self.blocks.clear();
+        self.blocks.resize(self.block_row.len(), Matrix2::zeros());
+
+        let (old_ptr, old_idx) = (
+            std::mem::take(&mut self.col_ptr),
+            std::mem::take(&mut self.row_idx),
+        );
+        self.src.clear();
+        self.col_ptr.push(0);
+        for i in 0..n_nodes {
+            for c in 0..2 {
+                for b in self.block_col[i]..self.block_col[i + 1] {
+                    let j = self.block_row[b];
+                    for r in 0..2 {
+                        if j == i && r < c {
+                            continue;
+                        }
+                        self.row_idx.push(2 * j + r);
+                        self.src.push(4 * b + 2 * r + c);
+                    }
+                }
+                self.col_ptr.push(self.row_idx.len());
+            }
+        }
+        self.val.clear();
+        self.val.resize(self.row_idx.len(), 0.0);
+        self.new_symbolic = old_ptr != self.col_ptr || old_idx != self.row_idx;
+        if self.new_symbolic {
+            self.symbolic = None;
+        }
+    }
+
+    pub fn zero(&mut self) {
+        self.blocks.iter_mut().for_each(|b| *b = Matrix2::zeros());
+    }
+
+    fn find(&self, i: usize, j: usize) -> usize {
+        let rows = &self.block_row[self.block_col[i]..self.block_col[i + 1]];
+        self.block_col[i]
+            + rows
+                .binary_search(&j)
+                .expect("pair outside the block pattern")
+    }
+
+    /// Adds `k` to `K[2I.., 2J..]` for `I >= J` (the lower triangle; the caller skips `I < J`).
+    pub fn add_lower(&mut self, i: usize, j: usize, k: &Matrix2<f64>) {
+        let b = self.find(j, i);
+        self.blocks[b] += k;
+    }
+
+    /// Adds `k` to the diagonal block of node `i`.
+    pub fn add_diag(&mut self, i: usize, k: f64) {
+        let b = self.find(i, i);
+        self.blocks[b][(0, 0)] += k;
+        self.blocks[b][(1, 1)] += k;
+    }
+
+    /// Diagonal entry `K[d][d]`.
+    pub fn diag(&self, d: usize) -> f64 {
+        let b = self.find(d / 2, d / 2);
+        self.blocks[b][(d % 2, d % 2)]
+    }
+
+    /// `y = K x` with the full symmetric matrix.
+    pub fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        y.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..self.n_nodes {
+            for b in self.block_col[i]..self.block_col[i + 1] {
+                let j = self.block_row[b];
+                let k = &self.blocks[b];
+                let (xi0, xi1, xj0, xj1) = (x[2 * i], x[2 * i + 1], x[2 * j], x[2 * j + 1]);
+                if i == j {
+                    y[2 * i] += k[(0, 0)] * xi0 + k[(1, 0)] * xi1;
+                    y[2 * i + 1] += k[(1, 0)] * xi0 + k[(1, 1)] * xi1;
+                } else {
+                    y[2 * j] += k[(0, 0)] * xi0 + k[(0, 1)] * xi1;
+                    y[2 * j + 1] += k[(1, 0)] * xi0 + k[(1, 1)] * xi1;
+                    y[2 * i] += k[(0, 0)] * xj0 + k[(1, 0)] * xj1;
+                    y[2 * i + 1] += k[(0, 1)] * xj0 + k[(1, 1)] * xj1;
+                }
+            }
+        }
+    }
+
+    /// Solves `K x = rhs` in place, with the DOFs in `fixed` eliminated (their rows and
+    /// columns reduced to the diagonal; the caller has moved their coupling to `rhs`).
+    pub fn solve(&mut self, fixed: &[bool], rhs: &mut [f64]) -> Result<(), String> {
+        for (k, s) in self.src.iter().enumerate() {
+            let (b, r, c) = (s / 4, (s % 4) / 2, s % 2);
+            self.val[k] = self.blocks[b][(r, c)];
+        }
+        for c in 0..2 * self.n_nodes {
+            for k in self.col_ptr[c]..self.col_ptr[c + 1] {
+                let r = self.row_idx[k];
+                if r != c && (fixed[r] || fixed[c]) {
+                    self.val[k] = 0.0;
+                }
+            }
+        }
+        let n = 2 * self.n_nodes;
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        // Sequential: the systems are small (a few thousand DOFs) and the machine shared.
+        let par = Par::Seq;
+        if self.symbolic.is_none() {
+            let params = CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            };
+            let symbolic =
+                factorize_symbolic_cholesky(sym, Side::Lower, SymmetricOrdering::Amd, params)
+                    .map_err(|e| format!("{e:?}"))?;
+            self.factor.clear();
+            self.factor.resize(symbolic.len_val(), 0.0);
+            self.factor_mem = Some(MemBuffer::new(
+                symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+            ));
+            self.solve_mem = Some(MemBuffer::new(
+                symbolic.solve_in_place_scratch::<f64>(1, par),
+            ));
+            self.symbolic = Some(symbolic);
+        }
+        let (Some(symbolic), Some(fmem), Some(smem)) =
+            (&self.symbolic, &mut self.factor_mem, &mut self.solve_mem)
+        else {
+            return Err("no symbolic factorisation".into());
+        };
+        let llt = symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.factor,
+                SparseColMatRef::new(sym, &self.val),
+                Side::Lower,
+                Default::default(),
+                par,
+                MemStack::new(fmem),
+                Default::default(),
+            )
+            .map_err(|e| format!("{e:?}"))?;
+        llt.solve_in_place_with_conj(
+            Conj::No,
+            faer::MatMut::from_column_major_slice_mut(rhs, n, 1),
+            par,
+            MemStack::new(smem),
+        );
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solves_a_small_spd_system_with_a_fixed_dof() {
+        // Chain of 3 nodes, springs along both axes, plus mass on the diagonal.
+        let mut s = SymSystem::default();
+        let mut pairs = vec![(0, 1), (1, 2)];
+        s.set_pattern(3, &mut pairs);
+        assert!(s.new_symbolic);
+        let k = Matrix2::new(2.0, 0.5, 0.5, 1.0);
+        for (i, j) in [(0, 1), (1, 2)] {
+            s.add_lower(i, i, &k);
+            s.add_lower(j, j, &k);
+            s.add_lower(j, i, &(-k));
+        }
+        for i in 0..3 {
+            s.add_diag(i, 1.0);
+        }
+        let x: Vec<f64> = (0..6).map(|i| i as f64 - 1.5).collect();
+        let mut b = vec![0.0; 6];
+        s.matvec(&x, &mut b);
+        s.solve(&[false; 6], &mut b).unwrap();
+        for (a, e) in b.iter().zip(&x) {
+            assert!((a - e).abs() < 1e-12);
+        }
+        let mut pairs = vec![(0, 1), (1, 2)];
+        s.set_pattern(3, &mut pairs);
+        assert!(!s.new_symbolic);
+    }
+}
