@@ -256,6 +256,41 @@ pub struct Mpm {
     pub density: f64,
     /// Material-point spacing over grain radius, Δr/R (paper: 0.029).
     pub resolution: f64,
+    /// Shape functions: `bspline` (quadratic B-spline, default: converges to the elastic
+    /// solution), `bilinear` (the paper's) or `gimp`.
+    #[serde(default = "shape")]
+    pub shape: Shape,
+    /// Grain law: `linear_elastic` (the paper's, objective update) or `neo_hookean`.
+    #[serde(default = "model")]
+    pub model: Model,
+    /// B-bar against volumetric locking.
+    #[serde(default = "yes")]
+    pub bbar: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Shape {
+    Bspline,
+    Bilinear,
+    Gimp,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Model {
+    LinearElastic,
+    NeoHookean,
+}
+
+fn shape() -> Shape {
+    Shape::Bspline
+}
+fn model() -> Model {
+    Model::LinearElastic
+}
+fn yes() -> bool {
+    true
 }
 
 /// Compression by a moving top wall.

@@ -122,7 +122,7 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         .collect();
     // Refuse what this build cannot do before any work starts.
     for &k in &wanted {
-        if let Err(why) = stages::supported(&nodes[k]) {
+        if let Err(why) = stages::supported(&loaded.pipeline, &nodes[k]) {
             return Err(Box::new(InputError {
                 file: loaded.file.clone(),
                 key: nodes[k].stage.name().into(),

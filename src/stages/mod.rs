@@ -4,9 +4,10 @@
 pub mod compact;
 pub mod discretise;
 pub mod frames;
+pub mod mpm_single;
 pub mod prepare;
 
-use crate::config::Pipeline;
+use crate::config::{Layout, Pipeline};
 use crate::pipeline::{Node, Stage, StageCtx};
 use serde::{Deserialize, Serialize};
 
@@ -16,6 +17,8 @@ pub enum StageState {
     Prepared(prepare::Prepared),
     Bpm(discretise::BpmGrains),
     Compacted(compact::Compacted),
+    Mpm(mpm_single::MpmGrain),
+    MpmCompacted(mpm_single::MpmCompacted),
 }
 
 impl StageState {
@@ -25,21 +28,29 @@ impl StageState {
             StageState::Prepared(p) => serde_json::to_value(&p.figures).unwrap_or_default(),
             StageState::Bpm(g) => serde_json::to_value(&g.figures).unwrap_or_default(),
             StageState::Compacted(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
+            StageState::Mpm(g) => serde_json::to_value(g).unwrap_or_default(),
+            StageState::MpmCompacted(c) => serde_json::to_value(&c.stats).unwrap_or_default(),
         }
     }
 }
 
 /// Whether this build can run a node; a node it cannot is refused before any work starts,
 /// never faked.
-pub fn supported(node: &Node) -> Result<(), String> {
-    let mpm = node.case.starts_with("mpm");
+pub fn supported(p: &Pipeline, node: &Node) -> Result<(), String> {
+    let packing = p.prepare.layout == Layout::Packing;
     match node.stage {
         Stage::Prepare => Ok(()),
-        Stage::Discretise | Stage::Compact if !mpm => Ok(()),
-        Stage::Discretise | Stage::Compact => Err(format!(
-            "the MPM {} stage is not built in this version",
-            node.stage.name()
-        )),
+        Stage::Discretise | Stage::Compact if packing && node.case.starts_with("mpm") => {
+            Err(format!(
+                "the MPM {} stage of packings is not built in this version (single grains are)",
+                node.stage.name()
+            ))
+        }
+        Stage::Compact if packing => Err(
+            "the BPM compaction of packings is not built in this version (single grains are)"
+                .into(),
+        ),
+        Stage::Discretise | Stage::Compact => Ok(()),
         Stage::Analyse => Err("the analyse stage is not built in this version".into()),
     }
 }
@@ -56,6 +67,15 @@ pub fn run(
             let (state, summary) = prepare::run(p, ctx)?;
             Ok((StageState::Prepared(state), summary))
         }
+        (Stage::Discretise, [StageState::Prepared(prep)]) if node.case == "mpm" => {
+            let m = p
+                .discretise
+                .as_ref()
+                .and_then(|d| d.mpm.as_ref())
+                .expect("validated");
+            let (g, summary) = mpm_single::discretise(m, prep.bodies.radius[0])?;
+            Ok((StageState::Mpm(g), summary))
+        }
         (Stage::Discretise, [StageState::Prepared(prep)]) => {
             let d = p
                 .discretise
@@ -71,6 +91,10 @@ pub fn run(
             let mu = node.params["friction"].as_f64().unwrap_or(0.0);
             let (c, summary) = compact::run_bpm(p, mu, g, ctx)?;
             Ok((StageState::Compacted(c), summary))
+        }
+        (Stage::Compact, [StageState::Mpm(g)]) => {
+            let (c, summary) = mpm_single::compact(p, g, ctx)?;
+            Ok((StageState::MpmCompacted(c), summary))
         }
         (stage, _) => Err(format!(
             "the {} stage cannot run on this upstream state",
