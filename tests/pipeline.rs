@@ -160,7 +160,7 @@ fn bad_input_exits_2_naming_file_key_value_and_position() {
     let cases = [
         (
             SMALL.replace("seed: 3", "seed: 3\nbogus: 1"),
-            "p.yaml:3:1: unknown field `bogus`",
+            "p.yaml:3:1: bogus = 1: unknown field `bogus`",
         ),
         (SMALL.replace("grains: 20", "grains: [20"), "p.yaml:"),
         (

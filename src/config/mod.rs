@@ -78,6 +78,11 @@ fn load_inner(file: &Path, sets: &[String]) -> Result<Loaded, InputError> {
     let mut pipeline: Pipeline = serde_saphyr::from_str(&text).map_err(|e| {
         let mut ie = err("", "", first_line(&e.to_string()));
         ie.at = e.location().map(|l| (l.line(), l.column()));
+        // name the key and value on that line when there is one
+        if let Some((key, value)) = ie.at.and_then(|(line, _)| locate::key_at(&text, line)) {
+            ie.key = key;
+            ie.value = value;
+        }
         ie
     })?;
     let mut set_keys = Vec::new();

@@ -57,6 +57,7 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
     solver(&p.solver)?;
     if let Some(d) = &p.discretise {
         discretise(d)?;
+        bpm_fits(p, d)?;
     }
     if let Some(c) = &p.compact {
         positive("compact.wall_velocity", c.wall_velocity)?;
@@ -164,6 +165,55 @@ fn solver(s: &Solver) -> Result<(), Failure> {
     }
     positive("solver.alert", s.alert)?;
     non_negative("solver.skin", s.skin)
+}
+
+/// The BPM particles must fit their grains, and the compaction step must be below the
+/// stability limit of the explicit attraction (0.5 t0, METHODS.md §1.9).
+fn bpm_fits(p: &Pipeline, d: &Discretise) -> Result<(), Failure> {
+    let Some(b) = d
+        .bpm
+        .as_ref()
+        .filter(|_| d.method.to_vec().contains(&Method::Bpm))
+    else {
+        return Ok(());
+    };
+    let ranges = b.particle_diameter.to_vec();
+    let d_max = ranges.iter().map(|r| r[1]).fold(0.0, f64::max);
+    let d_min = ranges.iter().map(|r| r[0]).fold(f64::INFINITY, f64::min);
+    let smallest_grain = match p.prepare.layout {
+        Layout::Single => p.prepare.radius.unwrap_or(0.0),
+        Layout::Packing => 0.5 * p.prepare.diameter.map_or(0.0, |r| r[0]),
+        Layout::Explicit => p
+            .prepare
+            .bodies
+            .iter()
+            .map(|b| b.radius)
+            .fold(f64::INFINITY, f64::min),
+    };
+    if smallest_grain < 2.0 * d_max {
+        fail(
+            "discretise.bpm.particle_diameter",
+            ranges,
+            &format!(
+                "particles up to {d_max} m do not fit the smallest grain (radius {smallest_grain} m): need grain radius >= 2 d_max"
+            ),
+        )?;
+    }
+    if let Some(dt) = p.compact.as_ref().and_then(|c| c.time_step) {
+        let r = 0.5 * d_min;
+        let t0 = (b.density * std::f64::consts::PI * r * r * 2.0 * r / b.f0).sqrt();
+        if dt > 0.5 * t0 {
+            fail(
+                "compact.time_step",
+                dt,
+                &format!(
+                    "must be <= 0.5 t0 = {:.3e} s, the stability limit of the BPM attraction (t0 = sqrt(m a0/F0) of the smallest particle)",
+                    0.5 * t0
+                ),
+            )?;
+        }
+    }
+    Ok(())
 }
 
 fn discretise(d: &Discretise) -> Result<(), Failure> {
