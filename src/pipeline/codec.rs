@@ -14,9 +14,10 @@ pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
 }
 
 /// Decodes `bytes`, which must hold exactly one value. A length limit guards against a
-/// corrupt length prefix asking for a huge allocation.
+/// corrupt length prefix asking for a huge allocation (256 MiB: over ten times the largest
+/// state a run writes, a 70,000-particle BPM packing with its contacts).
 pub fn decode<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
-    let config = bincode::config::standard().with_limit::<{ 1 << 34 }>();
+    let config = bincode::config::standard().with_limit::<{ 1 << 28 }>();
     let (value, used) =
         bincode::serde::decode_from_slice(bytes, config).map_err(|e| e.to_string())?;
     if used != bytes.len() {
