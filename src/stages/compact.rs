@@ -6,7 +6,7 @@
 use super::discretise::BpmGrains;
 use super::frames::FrameLog;
 use crate::bpm::{BpmLaw, measure};
-use crate::cd::{CdParams, LawTable, NlgsParams, Partner, Scene};
+use crate::cd::{LawTable, Partner, Scene};
 use crate::config::{Compact, Layout, Pipeline, defaults};
 use crate::geom::{V2, Wall};
 use crate::io::vtk::{Data, Frame, Lines, write_vtu};
@@ -119,18 +119,7 @@ fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running,
         ));
     }
     let d_min = 2.0 * b.radius.iter().cloned().fold(f64::INFINITY, f64::min);
-    let params = CdParams {
-        dt,
-        theta: p.solver.theta,
-        gravity: V2::new(0.0, -c.gravity),
-        alert: p.solver.alert * d_min,
-        skin: p.solver.skin * d_min,
-        nlgs: NlgsParams {
-            tol: p.solver.tolerance,
-            check_every: p.solver.check_every,
-            max_iter: p.solver.max_iterations,
-        },
-    };
+    let params = super::cd_params(&p.solver, dt, c.gravity, d_min);
     let top = walls.len() - 1;
     let wall_laws = vec![
         BpmLaw::Coulomb {
@@ -333,24 +322,7 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(Compacted, String), String> {
         .map(|r| (r.area / a0 - 1.0).abs())
         .fold(0.0, f64::max);
     f.escaped_max = rows.iter().map(|r| r.escaped).max().unwrap_or(0);
-    let mut csv =
-        String::from("time,strain,force,width,sigma,force_top,area,escaped,nlgs_iterations\n");
-    for r in &rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{}",
-            r.time,
-            r.strain,
-            r.force,
-            r.width,
-            r.sigma,
-            r.force_top,
-            r.area,
-            r.escaped,
-            r.nlgs_iterations
-        );
-    }
-    ctx.write("timeseries.csv", csv.as_bytes())
+    ctx.write("timeseries.csv", csv(&rows).as_bytes())
         .map_err(|e| format!("writing output in {}: {e}", ctx.dir.display()))?;
     let summary = format!(
         "{} steps, {:.1} NLGS sweeps/step, plateau σ<a0>/F0 = {:.3}, area change {:.1}%, {} escaped",

@@ -3,9 +3,9 @@
 
 use super::prepare::Prepared;
 use crate::bpm::{self, BpmLaw};
-use crate::cd::{Bodies, CdParams, LawTable, NlgsParams, Scene};
+use crate::cd::{Bodies, LawTable, Scene};
 use crate::config::{Bpm, Layout, Pipeline, defaults};
-use crate::geom::{V2, Wall};
+use crate::geom::Wall;
 use crate::pipeline::StageCtx;
 use crate::rng::Rng;
 use serde::{Deserialize, Serialize};
@@ -84,18 +84,7 @@ pub fn run_bpm(
     let t0 = t0(&bodies, bpm.f0);
     // Relax the aggregates under their own attraction, alone (no walls, no gravity).
     let d_min = range[0];
-    let params = CdParams {
-        dt: defaults::BPM_STEP * t0,
-        theta: p.solver.theta,
-        gravity: V2::zeros(),
-        alert: p.solver.alert * d_min,
-        skin: p.solver.skin * d_min,
-        nlgs: NlgsParams {
-            tol: p.solver.tolerance,
-            check_every: p.solver.check_every,
-            max_iter: p.solver.max_iterations,
-        },
-    };
+    let params = super::cd_params(&p.solver, defaults::BPM_STEP * t0, 0.0, d_min);
     let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, vec![]);
     let mut scene = Scene::new(bodies, vec![], laws, params, p.seed);
     let bar = ctx.progress("discretise", defaults::BPM_RELAX_STEPS);

@@ -7,7 +7,9 @@ pub mod frames;
 pub mod mpm_single;
 pub mod prepare;
 
-use crate::config::{Layout, Pipeline};
+use crate::cd::{CdParams, NlgsParams};
+use crate::config::{Layout, Pipeline, Solver};
+use crate::geom::V2;
 use crate::pipeline::{Node, Stage, StageCtx};
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +33,23 @@ impl StageState {
             StageState::Mpm(g) => serde_json::to_value(g).unwrap_or_default(),
             StageState::MpmCompacted(c) => serde_json::to_value(&c.stats).unwrap_or_default(),
         }
+    }
+}
+
+/// Contact-dynamics settings from the solver section: lengths in units of the smallest
+/// diameter `d_min`, gravity along -y.
+pub(crate) fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> CdParams {
+    CdParams {
+        dt,
+        theta: solver.theta,
+        gravity: V2::new(0.0, -gravity),
+        alert: solver.alert * d_min,
+        skin: solver.skin * d_min,
+        nlgs: NlgsParams {
+            tol: solver.tolerance,
+            check_every: solver.check_every,
+            max_iter: solver.max_iterations,
+        },
     }
 }
 

@@ -4,8 +4,8 @@
 //! recorded.
 
 use super::frames::FrameLog;
-use crate::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Partner, Scene};
-use crate::config::{Layout, Pipeline, Prepare, Solver, defaults};
+use crate::cd::{Bodies, Coulomb, LawTable, Partner, Scene};
+use crate::config::{Layout, Pipeline, Prepare, defaults};
 use crate::geom::{V2, Wall};
 use crate::packing;
 use crate::pipeline::StageCtx;
@@ -149,21 +149,6 @@ fn rest_ratio(scene: &Scene<Coulomb>, g: f64) -> f64 {
     b.translational_energy() / (b.total_mass() * g.max(1e-300) * 2.0 * b.mean_radius())
 }
 
-fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> CdParams {
-    CdParams {
-        dt,
-        theta: solver.theta,
-        gravity: V2::new(0.0, -gravity),
-        alert: solver.alert * d_min,
-        skin: solver.skin * d_min,
-        nlgs: NlgsParams {
-            tol: solver.tolerance,
-            check_every: solver.check_every,
-            max_iter: solver.max_iterations,
-        },
-    }
-}
-
 fn default_step(prep: &Prepare, d_mean: f64) -> Result<f64, String> {
     match prep.time_step {
         Some(dt) => Ok(dt),
@@ -215,7 +200,7 @@ fn start(p: &Pipeline) -> Result<Running, String> {
     };
     let d_min = 2.0 * bodies.radius.iter().cloned().fold(f64::INFINITY, f64::min);
     let dt = default_step(prep, 2.0 * bodies.mean_radius())?;
-    let params = cd_params(&p.solver, dt, prep.gravity, d_min);
+    let params = super::cd_params(&p.solver, dt, prep.gravity, d_min);
     let wall_laws = vec![
         Coulomb {
             mu: prep.wall_friction
