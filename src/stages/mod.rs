@@ -31,7 +31,9 @@ impl StageState {
             StageState::Bpm(g) => serde_json::to_value(&g.figures).unwrap_or_default(),
             StageState::Compacted(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
             StageState::Mpm(g) => serde_json::to_value(g).unwrap_or_default(),
-            StageState::MpmCompacted(c) => serde_json::to_value(&c.stats).unwrap_or_default(),
+            StageState::MpmCompacted(c) => {
+                serde_json::json!({"stats": c.stats, "small_strain": c.small_strain})
+            }
         }
     }
 }

@@ -30,6 +30,44 @@ pub struct MpmCompacted {
     /// Run statistics, with the wall time zeroed (it goes to stage.json) so equal inputs
     /// give equal checkpoints.
     pub stats: RunStats,
+    pub small_strain: Vec<SmallStrain>,
+}
+
+/// The mean plate force at a small strain against the 2D elastic solution (Johnson §5.6,
+/// METHODS.md §5) and its linearisation, the paper's Eq. 13.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SmallStrain {
+    pub strain: f64,
+    /// N/m, interpolated between recorded rows.
+    pub force: f64,
+    pub over_johnson: f64,
+    pub over_eq13: f64,
+}
+
+/// Force/Johnson and force/Eq. 13 at ε = 0.02 and 0.05 (where the run reached them).
+fn small_strain(rows: &[Row], g: &MpmGrain) -> Vec<SmallStrain> {
+    let (e, nu, r) = (g.material.young, g.material.poisson, g.radius);
+    [0.02, 0.05]
+        .into_iter()
+        .filter_map(|eps| {
+            let k = rows.iter().position(|row| row.strain >= eps)?;
+            let force_at = |row: &Row| 0.5 * (row.force_top + row.force_bottom);
+            let force = if k == 0 {
+                force_at(&rows[0]) * eps / rows[0].strain
+            } else {
+                let (a, b) = (&rows[k - 1], &rows[k]);
+                let w = (eps - a.strain) / (b.strain - a.strain);
+                (1.0 - w) * force_at(a) + w * force_at(b)
+            };
+            let johnson = crate::mpm::analytic::johnson_force(e, nu, r, eps)?;
+            Some(SmallStrain {
+                strain: eps,
+                force,
+                over_johnson: force / johnson,
+                over_eq13: force / crate::mpm::analytic::eq13_force(e, nu, r, eps),
+            })
+        })
+        .collect()
 }
 
 fn params(g: &MpmGrain, c: &Compact) -> SingleGrainParams {
@@ -133,13 +171,21 @@ pub fn compact(
         );
     }
     ctx.write("timeseries.csv", csv.as_bytes()).map_err(io)?;
+    let small = small_strain(&result.rows, g);
     let s = &result.stats;
+    let at = |k: usize| {
+        small
+            .get(k)
+            .map_or(f64::NAN, |x: &SmallStrain| x.over_johnson)
+    };
     let summary = format!(
-        "{} points, {} steps (Δt = {:.0} x CFL), {:.1} Newton iterations/step, σ(ε = {:.2}) = {:.3e} Pa",
+        "{} points, {} steps (Δt = {:.0} x CFL), {:.1} Newton iterations/step, F/Johnson {:.3} at 2% and {:.3} at 5%, σ(ε = {:.2}) = {:.3e} Pa",
         s.points,
         s.steps,
         s.dt / s.dt_cfl,
         s.newton_iterations as f64 / s.steps.max(1) as f64,
+        at(0),
+        at(1),
         result.rows.last().map_or(0.0, |r| r.strain),
         result.rows.last().map_or(0.0, |r| r.sigma)
     );
@@ -148,6 +194,7 @@ pub fn compact(
             rows: result.rows,
             points: result.points,
             stats: result.stats,
+            small_strain: small,
         },
         summary,
     ))
