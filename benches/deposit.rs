@@ -178,6 +178,7 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64) -> Outcome {
     let mut out = Outcome::default();
     let mut sweeps = 0u64;
     let mut floor = Vec::new();
+    let trace = std::env::var_os("DEPOSIT_TRACE").is_some();
     let t0 = Instant::now();
     loop {
         if scene.time > s.settle_after
@@ -197,7 +198,7 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64) -> Outcome {
         if floor.len() > 20 {
             floor.remove(0);
         }
-        if scene.steps % PROGRESS == 0 {
+        if trace || scene.steps.is_multiple_of(PROGRESS) {
             eprintln!(
                 "  softgrain step {} t = {:.4} s, {} contacts, {} sweeps, {:.0} s wall",
                 scene.steps,
@@ -360,7 +361,7 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
         if floor.len() > 20 {
             floor.remove(0);
         }
-        if steps % PROGRESS == 0 {
+        if steps.is_multiple_of(PROGRESS) {
             eprintln!(
                 "  rapier step {steps} t = {time:.4} s, {contacts} contacts, {solve_wall:.0} s wall"
             );
@@ -428,7 +429,7 @@ fn arg<'a>(args: &'a [String], key: &str) -> Option<&'a str> {
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    if n % 2 == 1 {
+    if !n.is_multiple_of(2) {
         v[n / 2]
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])

@@ -132,6 +132,14 @@ struct Shared(*mut Dof);
 unsafe impl Send for Shared {}
 unsafe impl Sync for Shared {}
 
+impl Shared {
+    /// A method, not a field access: closures then capture the whole (Send) wrapper.
+    #[inline(always)]
+    fn get(self) -> *mut Dof {
+        self.0
+    }
+}
+
 /// Contacts solved at or above this count use the coloured sweep: rows are ordered by colour
 /// of the contact conflict graph (contacts sharing a disk get different colours) and the
 /// rows of one colour are solved in parallel (METHODS.md §1.11). The order depends only on
@@ -212,7 +220,7 @@ pub fn solve<L: InteractionLaw>(
             } else {
                 for r in rows.iter_mut() {
                     // SAFETY: one thread; every index is within `dofs`.
-                    unsafe { update_row(r, ptr.0, nb, laws) };
+                    unsafe { update_row(r, ptr.get(), nb, laws) };
                 }
             }
         }
@@ -222,7 +230,7 @@ pub fn solve<L: InteractionLaw>(
             let mut norms = Norms::default();
             for r in rows.iter_mut() {
                 // SAFETY: as above.
-                let (old, new) = unsafe { update_row(r, ptr.0, nb, laws) };
+                let (old, new) = unsafe { update_row(r, ptr.get(), nb, laws) };
                 norms.add(old, new, r.w_nn, r.w_tt);
             }
             norms
@@ -315,14 +323,13 @@ impl Colouring {
             if c == Self::SERIAL as usize || class.len() <= CHUNK {
                 for r in class.iter_mut() {
                     // SAFETY: one thread at a time here.
-                    unsafe { update_row(r, ptr.0, nb, laws) };
+                    unsafe { update_row(r, ptr.get(), nb, laws) };
                 }
             } else {
                 class.par_chunks_mut(CHUNK).for_each(|chunk| {
-                    let ptr = ptr;
                     for r in chunk.iter_mut() {
                         // SAFETY: rows of one colour share no disk.
-                        unsafe { update_row(r, ptr.0, nb, laws) };
+                        unsafe { update_row(r, ptr.get(), nb, laws) };
                     }
                 });
             }
@@ -340,11 +347,10 @@ impl Colouring {
         for (c, range) in self.classes() {
             let class = &mut rows[range];
             let partial = |chunk: &mut [Row]| {
-                let ptr = ptr;
                 let mut norms = Norms::default();
                 for r in chunk.iter_mut() {
                     // SAFETY: rows of one colour share no disk (or run on one thread).
-                    let (old, new) = unsafe { update_row(r, ptr.0, nb, laws) };
+                    let (old, new) = unsafe { update_row(r, ptr.get(), nb, laws) };
                     norms.add(old, new, r.w_nn, r.w_tt);
                 }
                 norms
