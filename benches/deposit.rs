@@ -12,7 +12,7 @@
 //! `--child`) so that its peak resident memory (VmHWM) is its own.
 //!
 //! Usage: `cargo bench --bench deposit -- [--sizes 300,30000] [--runs 3]
-//! [--engines softgrain,rapier] [--budget SECONDS] [--seed 1]`
+//! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]`
 
 use rapier2d::prelude::*;
 use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
@@ -36,7 +36,7 @@ struct Setup {
     d_mean: f64,
 }
 
-fn setup(n: usize, seed: u64) -> Setup {
+fn setup(n: usize, seed: u64, step: f64) -> Setup {
     let mut rng = Rng::stream(seed, "prepare-sizes");
     let d = packing::diameters(DISTRIBUTION, DIAMETER, n, &mut rng);
     let width = packing::square_box_width(DISTRIBUTION, DIAMETER, n, defaults::SQUARE_BOX_PHI);
@@ -49,7 +49,7 @@ fn setup(n: usize, seed: u64) -> Setup {
         width,
         walls,
         settle_after: (2.0 * height / defaults::GRAVITY).sqrt(),
-        dt: defaults::DEPOSIT_STEP * (d_mean / defaults::GRAVITY).sqrt(),
+        dt: step * (d_mean / defaults::GRAVITY).sqrt(),
         d_mean,
     }
 }
@@ -407,8 +407,8 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, n: usize, seed: u64, budget: f64) {
-    let s = setup(n, seed);
+fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64) {
+    let s = setup(n, seed, step);
     let mut out = match engine {
         "softgrain" => run_softgrain(&s, seed, budget),
         "rapier" => run_rapier(&s, budget, false),
@@ -440,10 +440,13 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let seed: u64 = arg(&args, "--seed").map_or(1, |s| s.parse().expect("--seed"));
     let budget: f64 = arg(&args, "--budget").map_or(3600.0, |s| s.parse().expect("--budget"));
+    // Time step of both engines in units of sqrt(<d>/g); the prepare stage's default unless set.
+    let step: f64 =
+        arg(&args, "--step").map_or(defaults::DEPOSIT_STEP, |s| s.parse().expect("--step"));
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
-        child(engine, n, seed, budget);
+        child(engine, n, seed, budget, step);
         return;
     }
     let sizes: Vec<usize> = arg(&args, "--sizes")
@@ -464,7 +467,7 @@ fn main() {
     );
     let mut table = Vec::new();
     for &n in &sizes {
-        let s = setup(n, seed);
+        let s = setup(n, seed, step);
         println!(
             "{n} disks: box width {:.4} m, h = {:.3e} s, rest test after {:.3} s",
             s.width, s.dt, s.settle_after
@@ -476,6 +479,7 @@ fn main() {
                 let o = std::process::Command::new(&exe)
                     .args(["--child", engine, &n.to_string()])
                     .args(["--seed", &seed.to_string(), "--budget", &budget.to_string()])
+                    .args(["--step", &step.to_string()])
                     .stderr(std::process::Stdio::inherit())
                     .output()
                     .expect("child run");
