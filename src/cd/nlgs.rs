@@ -5,6 +5,7 @@
 use super::{Bodies, Contact, InteractionLaw, LawTable, Partner};
 use crate::geom::{V2, perp};
 use crate::rng::Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Convergence settings. The norms are LMGC90's "QM/16": the quadratic norms below `tol`
@@ -22,22 +23,6 @@ pub struct NlgsReport {
     pub converged: bool,
     /// The largest of the scaled norms at the last check (≤ 1 when converged).
     pub residual: f64,
-}
-
-/// Local velocity of contact `c` (normal, tangential) from the current body velocities.
-#[inline]
-fn local_velocity(c: &Contact, b: &Bodies, wall_vel: &[V2]) -> (f64, f64) {
-    let i = c.i as usize;
-    let t = perp(c.n);
-    let (vj, spin_j) = match c.j {
-        Partner::Body(j) => (
-            b.vel[j as usize],
-            b.radius[j as usize] * b.omega[j as usize],
-        ),
-        Partner::Wall(w) => (wall_vel[w as usize], 0.0),
-    };
-    let dv = b.vel[i] - vj;
-    (dv.dot(&c.n), dv.dot(&t) - b.radius[i] * b.omega[i] - spin_j)
 }
 
 /// Applies the impulse increment (dp_n, dp_t) of contact `c` to its bodies.
@@ -71,23 +56,98 @@ pub struct StepData<'a, L> {
     pub gap_rate: f64,
 }
 
-/// One local solve; returns the impulse before and after.
-#[inline]
-fn update<L: InteractionLaw>(
-    c: &mut Contact,
-    b: &mut Bodies,
-    data: &StepData<L>,
+/// A body as the sweeps see it, packed so that one local solve touches two cache lines:
+/// velocity, spin, 1/m, r/I and r. Walls follow the disks as bodies with 1/m = r/I = r = 0
+/// and their imposed velocity; they are read, never written.
+#[derive(Clone, Copy, Debug)]
+struct Dof {
+    v: V2,
+    w: f64,
+    im: f64,
+    ir: f64,
+    r: f64,
+}
+
+/// A contact as the sweeps see it: its bodies in the packed array (`j` ≥ the number of disks
+/// for a wall), its frame and diagonal Delassus terms, the gap shift max(g, 0)/(θh), its
+/// impulse, and its index in the step's contact list for the write-back.
+#[derive(Clone, Copy, Debug)]
+struct Row {
+    i: u32,
+    j: u32,
+    k: u32,
+    law: u16,
+    n: V2,
+    shift: f64,
+    w_nn: f64,
+    w_tt: f64,
+    p_n: f64,
+    p_t: f64,
+}
+
+/// One local solve (METHODS.md §1.5) on packed data; returns the impulse before and after.
+/// `dofs` is a raw pointer so that the coloured sweep can run rows of one colour on several
+/// threads; the caller guarantees that no other thread writes bodies `r.i`, `r.j` meanwhile.
+///
+/// # Safety
+/// `dofs` points to at least max(r.i, r.j) + 1 valid bodies, and bodies `r.i` and (when
+/// `r.j < n_bodies`) `r.j` are not accessed by another thread during the call.
+#[inline(always)]
+unsafe fn update_row<L: InteractionLaw>(
+    r: &mut Row,
+    dofs: *mut Dof,
+    n_bodies: u32,
+    laws: &LawTable<L>,
 ) -> ([f64; 2], [f64; 2]) {
-    let (u_n, u_t) = local_velocity(c, b, data.wall_vel);
-    let hat_n = u_n - c.w_nn * c.p_n + c.gap.max(0.0) * data.gap_rate;
-    let hat_t = u_t - c.w_tt * c.p_t;
-    let (p_n, p_t) = data.laws.get(c.law).solve(hat_n, hat_t, c.w_nn, c.w_tt);
-    let old = [c.p_n, c.p_t];
-    apply(c, b, p_n - c.p_n, p_t - c.p_t);
-    c.p_n = p_n;
-    c.p_t = p_t;
+    // SAFETY: per the contract above.
+    let (bi, bj) = unsafe { (&mut *dofs.add(r.i as usize), *dofs.add(r.j as usize)) };
+    let t = perp(r.n);
+    let dv = bi.v - bj.v;
+    let u_n = dv.dot(&r.n);
+    let u_t = dv.dot(&t) - bi.r * bi.w - bj.r * bj.w;
+    let hat_n = u_n - r.w_nn * r.p_n + r.shift;
+    let hat_t = u_t - r.w_tt * r.p_t;
+    let (p_n, p_t) = laws.get(r.law).solve(hat_n, hat_t, r.w_nn, r.w_tt);
+    let old = [r.p_n, r.p_t];
+    let (dp_n, dp_t) = (p_n - r.p_n, p_t - r.p_t);
+    let p = dp_n * r.n + dp_t * t;
+    bi.v += bi.im * p;
+    bi.w -= bi.ir * dp_t;
+    if r.j < n_bodies {
+        // SAFETY: as above; j != i (a disk never touches itself).
+        let bj = unsafe { &mut *dofs.add(r.j as usize) };
+        bj.v -= bj.im * p;
+        bj.w -= bj.ir * dp_t;
+    }
+    r.p_n = p_n;
+    r.p_t = p_t;
     (old, [p_n, p_t])
 }
+
+/// A pointer to the packed bodies that may cross threads; see `update_row`.
+#[derive(Clone, Copy)]
+struct Shared(*mut Dof);
+// SAFETY: the coloured sweep only hands rows of one colour (pairwise body-disjoint) to
+// concurrent threads, so no body is written by two threads or read while written.
+unsafe impl Send for Shared {}
+unsafe impl Sync for Shared {}
+
+impl Shared {
+    /// A method, not a field access: closures then capture the whole (Send) wrapper.
+    #[inline(always)]
+    fn get(self) -> *mut Dof {
+        self.0
+    }
+}
+
+/// Contacts solved at or above this count use the coloured sweep: rows are ordered by colour
+/// of the contact conflict graph (contacts sharing a disk get different colours) and the
+/// rows of one colour are solved in parallel (METHODS.md §1.11). The order depends only on
+/// the data and the seeded shuffle, never on the thread count, so results are deterministic.
+const COLOURED_MIN: usize = 8192;
+/// Rows per parallel task, and per partial sum of the convergence norms (a fixed chunking
+/// keeps the sums' rounding independent of the thread count).
+const CHUNK: usize = 1024;
 
 /// Solves for the impulses of the contacts listed in `order` (the others keep theirs),
 /// sweeping them in an order shuffled before each check block.
@@ -104,28 +164,207 @@ pub fn solve<L: InteractionLaw>(
         report.converged = true;
         return report;
     }
+    let nb = b.len() as u32;
+    let mut dofs: Vec<Dof> = (0..b.len())
+        .map(|i| Dof {
+            v: b.vel[i],
+            w: b.omega[i],
+            im: b.inv_mass[i],
+            ir: b.inv_inertia[i] * b.radius[i],
+            r: b.radius[i],
+        })
+        .chain(data.wall_vel.iter().map(|&v| Dof {
+            v,
+            w: 0.0,
+            im: 0.0,
+            ir: 0.0,
+            r: 0.0,
+        }))
+        .collect();
+    let mut rows: Vec<Row> = order
+        .iter()
+        .map(|&k| {
+            let c = &contacts[k as usize];
+            Row {
+                i: c.i,
+                j: match c.j {
+                    Partner::Body(j) => j,
+                    Partner::Wall(w) => nb + w,
+                },
+                k,
+                law: c.law,
+                n: c.n,
+                shift: c.gap.max(0.0) * data.gap_rate,
+                w_nn: c.w_nn,
+                w_tt: c.w_tt,
+                p_n: c.p_n,
+                p_t: c.p_t,
+            }
+        })
+        .collect();
+    let coloured = rows.len() >= COLOURED_MIN;
+    let mut colouring = Colouring::default();
+    let laws = data.laws;
+    let ptr = Shared(dofs.as_mut_ptr());
     loop {
-        rng.shuffle(order);
-        for _ in 1..params.check_every.max(1) {
-            for &k in order.iter() {
-                update(&mut contacts[k as usize], b, data);
+        // Shuffling the rows themselves draws the same numbers as shuffling `order` and keeps
+        // the sweep's reads of the rows sequential.
+        rng.shuffle(&mut rows);
+        if coloured {
+            colouring.sort(&mut rows, b.len());
+        }
+        let sweeps = params.check_every.max(1);
+        for _ in 1..sweeps {
+            if coloured {
+                colouring.sweep(&mut rows, ptr, nb, laws);
+            } else {
+                for r in rows.iter_mut() {
+                    // SAFETY: one thread; every index is within `dofs`.
+                    unsafe { update_row(r, ptr.get(), nb, laws) };
+                }
             }
         }
-        let mut norms = Norms::default();
-        for &k in order.iter() {
-            let c = &mut contacts[k as usize];
-            let (old, new) = update(c, b, data);
-            norms.add(old, new, c.w_nn, c.w_tt);
-        }
-        report.iterations += params.check_every.max(1);
+        let norms = if coloured {
+            colouring.check_sweep(&mut rows, ptr, nb, laws)
+        } else {
+            let mut norms = Norms::default();
+            for r in rows.iter_mut() {
+                // SAFETY: as above.
+                let (old, new) = unsafe { update_row(r, ptr.get(), nb, laws) };
+                norms.add(old, new, r.w_nn, r.w_tt);
+            }
+            norms
+        };
+        report.iterations += sweeps;
         report.residual = norms.residual(params.tol);
         if report.residual <= 1.0 {
             report.converged = true;
-            return report;
+            break;
         }
         if report.iterations >= params.max_iter {
-            return report;
+            break;
         }
+    }
+    for (slot, r) in order.iter_mut().zip(&rows) {
+        *slot = r.k;
+        let c = &mut contacts[r.k as usize];
+        c.p_n = r.p_n;
+        c.p_t = r.p_t;
+    }
+    for (i, d) in dofs[..b.len()].iter().enumerate() {
+        b.vel[i] = d.v;
+        b.omega[i] = d.w;
+    }
+    report
+}
+
+/// Greedy colouring of the contact conflict graph in the (shuffled) row order: each row gets
+/// the smallest colour not yet used at either of its disks (walls are never written, so they
+/// do not conflict). Rows are then stably sorted by colour.
+#[derive(Default)]
+struct Colouring {
+    /// Colours used at each disk, as bits; rows that find all 64 taken go to a last class
+    /// swept on one thread.
+    used: Vec<u64>,
+    colour: Vec<u8>,
+    /// `bounds[c]..bounds[c + 1]` are the rows of colour c.
+    bounds: Vec<usize>,
+    scratch: Vec<Row>,
+}
+
+impl Colouring {
+    const SERIAL: u8 = 64;
+
+    fn sort(&mut self, rows: &mut [Row], n_bodies: usize) {
+        self.used.clear();
+        self.used.resize(n_bodies, 0);
+        self.colour.clear();
+        let mut count = [0usize; 65];
+        for r in rows.iter() {
+            let mut mask = self.used[r.i as usize];
+            let j = r.j as usize;
+            if j < n_bodies {
+                mask |= self.used[j];
+            }
+            let c = (!mask).trailing_zeros().min(64) as u8;
+            if c < Self::SERIAL {
+                self.used[r.i as usize] |= 1 << c;
+                if j < n_bodies {
+                    self.used[j] |= 1 << c;
+                }
+            }
+            self.colour.push(c);
+            count[c as usize] += 1;
+        }
+        self.bounds.clear();
+        self.bounds.push(0);
+        for c in count {
+            let last = *self.bounds.last().expect("non-empty");
+            self.bounds.push(last + c);
+        }
+        let mut fill = self.bounds.clone();
+        self.scratch.clear();
+        self.scratch.extend_from_slice(rows);
+        for (r, &c) in self.scratch.iter().zip(&self.colour) {
+            rows[fill[c as usize]] = *r;
+            fill[c as usize] += 1;
+        }
+    }
+
+    fn classes(&self) -> impl Iterator<Item = (usize, std::ops::Range<usize>)> + '_ {
+        (0..65)
+            .map(|c| (c, self.bounds[c]..self.bounds[c + 1]))
+            .filter(|(_, r)| !r.is_empty())
+    }
+
+    fn sweep<L: InteractionLaw>(&self, rows: &mut [Row], ptr: Shared, nb: u32, laws: &LawTable<L>) {
+        for (c, range) in self.classes() {
+            let class = &mut rows[range];
+            if c == Self::SERIAL as usize || class.len() <= CHUNK {
+                for r in class.iter_mut() {
+                    // SAFETY: one thread at a time here.
+                    unsafe { update_row(r, ptr.get(), nb, laws) };
+                }
+            } else {
+                class.par_chunks_mut(CHUNK).for_each(|chunk| {
+                    for r in chunk.iter_mut() {
+                        // SAFETY: rows of one colour share no disk.
+                        unsafe { update_row(r, ptr.get(), nb, laws) };
+                    }
+                });
+            }
+        }
+    }
+
+    fn check_sweep<L: InteractionLaw>(
+        &self,
+        rows: &mut [Row],
+        ptr: Shared,
+        nb: u32,
+        laws: &LawTable<L>,
+    ) -> Norms {
+        let mut total = Norms::default();
+        for (c, range) in self.classes() {
+            let class = &mut rows[range];
+            let partial = |chunk: &mut [Row]| {
+                let mut norms = Norms::default();
+                for r in chunk.iter_mut() {
+                    // SAFETY: rows of one colour share no disk (or run on one thread).
+                    let (old, new) = unsafe { update_row(r, ptr.get(), nb, laws) };
+                    norms.add(old, new, r.w_nn, r.w_tt);
+                }
+                norms
+            };
+            let parts: Vec<Norms> = if c == Self::SERIAL as usize || class.len() <= CHUNK {
+                class.chunks_mut(CHUNK).map(partial).collect()
+            } else {
+                class.par_chunks_mut(CHUNK).map(partial).collect()
+            };
+            for p in parts {
+                total.merge(&p);
+            }
+        }
+        total
     }
 }
 
@@ -143,6 +382,17 @@ struct Norms {
 }
 
 impl Norms {
+    fn merge(&mut self, o: &Norms) {
+        self.active += o.active;
+        self.sum_du2 += o.sum_du2;
+        self.max_du = self.max_du.max(o.max_du);
+        self.sum_wp2 += o.sum_wp2;
+        self.sum_du2_p2 += o.sum_du2_p2;
+        self.max_du_p = self.max_du_p.max(o.max_du_p);
+        self.sum_du_p += o.sum_du_p;
+        self.sum_e += o.sum_e;
+    }
+
     fn add(&mut self, old: [f64; 2], new: [f64; 2], w_nn: f64, w_tt: f64) {
         if old == [0.0, 0.0] && new == [0.0, 0.0] {
             return;
