@@ -4,8 +4,6 @@
 
 mod common;
 
-use softgrain::config;
-use softgrain::pipeline::{self, RunOptions, store};
 use softgrain::stages::StageState;
 use softgrain::stages::compact::Compacted;
 
@@ -13,20 +11,7 @@ fn compress(tag: &str, sets: &[&str]) -> Compacted {
     let dir = common::temp_dir(tag);
     let yaml = "name: g\nseed: 1\nprepare:\n  layout: single\n  radius: 1.5e-3\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.3\nsolver:\n  tolerance: 1.0e-3\noutput:\n  every: 100\n  vtk: false\n";
     let file = common::write(&dir, "g.yaml", yaml);
-    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
-    let loaded = config::load(&file, &sets).unwrap();
-    let opts = RunOptions {
-        out: dir.clone(),
-        from: None,
-        until: None,
-        quiet: true,
-    };
-    let out = pipeline::run(&loaded, &opts).unwrap();
-    let node = &out.last().unwrap().0;
-    let state = store::load(&dir.join("g/checkpoints").join(node.checkpoint_name()))
-        .unwrap()
-        .unwrap()
-        .unwrap();
+    let state = common::run_to_state(&dir, &file, sets);
     let _ = std::fs::remove_dir_all(&dir);
     match state {
         StageState::Compacted(c) => c,

@@ -3,8 +3,6 @@
 
 mod common;
 
-use softgrain::config;
-use softgrain::pipeline::{self, RunOptions, store};
 use softgrain::stages::StageState;
 
 fn deposit(grains: usize, friction: f64, tag: &str) -> softgrain::stages::prepare::Prepared {
@@ -13,17 +11,7 @@ fn deposit(grains: usize, friction: f64, tag: &str) -> softgrain::stages::prepar
         "name: dep\nseed: 7\nprepare:\n  grains: {grains}\n  diameter: [1.4e-3, 2.4e-3]\n  friction: {friction}\noutput:\n  every: 0\n  vtk: false\n"
     );
     let file = common::write(&dir, "dep.yaml", &yaml);
-    let loaded = config::load(&file, &[]).unwrap();
-    let opts = RunOptions {
-        out: dir.clone(),
-        from: None,
-        until: None,
-        quiet: true,
-    };
-    let out = pipeline::run(&loaded, &opts).unwrap();
-    let node = &out[0].0;
-    let path = dir.join("dep/checkpoints").join(node.checkpoint_name());
-    let state: StageState = store::load(&path).unwrap().unwrap().unwrap();
+    let state = common::run_to_state(&dir, &file, &[]);
     let _ = std::fs::remove_dir_all(&dir);
     match state {
         StageState::Prepared(p) => p,

@@ -3,8 +3,6 @@
 
 mod common;
 
-use softgrain::config;
-use softgrain::pipeline::{self, RunOptions, store};
 use softgrain::stages::StageState;
 
 #[test]
@@ -15,20 +13,8 @@ fn the_mpm_grain_stage_matches_the_elastic_solution_and_writes_its_files() {
         .replace("resolution: 0.029", "resolution: 0.04")
         .replace("final_strain: 0.3", "final_strain: 0.06");
     let file = common::write(&dir, "m.yaml", &text);
-    let loaded = config::load(&file, &[]).unwrap();
-    let opts = RunOptions {
-        out: dir.clone(),
-        from: None,
-        until: None,
-        quiet: true,
-    };
-    let out = pipeline::run(&loaded, &opts).unwrap();
-    let node = &out.last().unwrap().0;
+    let state = common::run_to_state(&dir, &file, &[]);
     let run = dir.join("single-grain-mpm");
-    let state = store::load(&run.join("checkpoints").join(node.checkpoint_name()))
-        .unwrap()
-        .unwrap()
-        .unwrap();
     let StageState::MpmCompacted(c) = state else {
         panic!("compact produced another state")
     };

@@ -42,3 +42,23 @@ pub fn checkpoints(run: &Path) -> Vec<PathBuf> {
     v.sort();
     v
 }
+
+/// Runs pipeline `file` quietly in the library into `dir` and returns the state of its last
+/// node, read back from its checkpoint.
+pub fn run_to_state(dir: &Path, file: &Path, sets: &[&str]) -> softgrain::stages::StageState {
+    use softgrain::pipeline::{self, RunOptions, store};
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let loaded = softgrain::config::load(file, &sets).unwrap();
+    let opts = RunOptions {
+        out: dir.to_path_buf(),
+        from: None,
+        until: None,
+        quiet: true,
+    };
+    let out = pipeline::run(&loaded, &opts).unwrap();
+    let node = &out.last().unwrap().0;
+    let path = pipeline::run_dir(dir, &loaded)
+        .join("checkpoints")
+        .join(node.checkpoint_name());
+    store::load(&path).unwrap().unwrap().unwrap()
+}
