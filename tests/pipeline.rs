@@ -243,3 +243,25 @@ fn a_stage_not_built_yet_is_refused_before_any_work() {
     assert!(o.status.success(), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn two_pipelines_share_their_common_upstream_work() {
+    let dir = temp_dir("shared");
+    let a = write(&dir, "a.yaml", SMALL);
+    let b = write(&dir, "b.yaml", &SMALL.replace("name: small", "name: other"));
+    let out = dir.to_str().unwrap();
+    assert!(
+        softgrain(&["pipeline", "run", a.to_str().unwrap(), "--out", out])
+            .status
+            .success()
+    );
+    let o = softgrain(&["pipeline", "run", b.to_str().unwrap(), "--out", out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("cached (from small)"), "{}", stdout(&o));
+    let (x, y) = (
+        checkpoints(&dir.join("small")),
+        checkpoints(&dir.join("other")),
+    );
+    assert_eq!(std::fs::read(&x[0]).unwrap(), std::fs::read(&y[0]).unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -160,7 +160,19 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
                         path.display()
                     );
                 }
-                None => {}
+                None => {
+                    // Equal names are equal work: another pipeline under the same --out
+                    // may have computed this node already.
+                    if let Some((state, from)) =
+                        shared_checkpoint(&opts.out, &root, &node.checkpoint_name())
+                    {
+                        store::save(&path, &state).map_err(io_err(&path))?;
+                        report(opts, node, &format!("cached (from {from})"));
+                        states[k] = Some(state);
+                        outcomes.push((node.clone(), Outcome::Cached));
+                        continue;
+                    }
+                }
             }
         }
         let ctx = StageCtx {
@@ -205,6 +217,23 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         outcomes.push((node.clone(), Outcome::Computed { seconds, summary }));
     }
     Ok(outcomes)
+}
+
+/// A valid checkpoint of this name in a sibling pipeline's folder under `out`, with that
+/// pipeline's name.
+fn shared_checkpoint(out: &Path, own: &Path, name: &str) -> Option<(StageState, String)> {
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(out)
+        .ok()?
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    dirs.sort();
+    dirs.into_iter().filter(|d| d != own).find_map(|d| {
+        let state = store::load::<StageState>(&d.join("checkpoints").join(name))
+            .ok()??
+            .ok()?;
+        Some((state, d.file_name()?.to_string_lossy().into_owned()))
+    })
 }
 
 fn report(opts: &RunOptions, node: &Node, what: &str) {
