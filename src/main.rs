@@ -71,7 +71,27 @@ fn parse_stage(s: &str) -> Result<Stage, String> {
         .ok_or_else(|| format!("unknown stage `{s}` (prepare, discretise, compact, analyse)"))
 }
 
+/// A write past `ulimit -f` raises SIGXFSZ, which kills the process before any message;
+/// ignored, the write fails with EFBIG instead and the run reports it like a full disk
+/// (exit 1, finished checkpoints kept).
+#[cfg(target_os = "linux")]
+fn ignore_file_size_signal() {
+    const SIGXFSZ: i32 = 25;
+    const SIG_IGN: usize = 1;
+    unsafe extern "C" {
+        fn signal(signum: i32, handler: usize) -> usize;
+    }
+    // SAFETY: installs the "ignore" disposition for one signal; no Rust handler runs.
+    unsafe {
+        signal(SIGXFSZ, SIG_IGN);
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn ignore_file_size_signal() {}
+
 fn main() -> ExitCode {
+    ignore_file_size_signal();
     let cli = Cli::parse();
     match cli.command {
         Command::Validate { file, set } => match config::load(&file, &set) {

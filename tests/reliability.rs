@@ -200,3 +200,39 @@ fn a_second_run_on_the_same_folder_is_refused_while_the_first_holds_the_lock() {
     assert!(o.status.success(), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_run_that_fills_its_disk_fails_clearly_keeps_its_checkpoints_and_resumes() {
+    let dir = temp_dir("fsize");
+    let file = write(&dir, "g.yaml", GRAIN);
+    let cmd = format!(
+        "ulimit -f 64; exec {} pipeline run {} --out {} -q",
+        env!("CARGO_BIN_EXE_softgrain"),
+        file.display(),
+        dir.display()
+    );
+    // a 64 KiB file-size limit: the first stages fit, the compaction's frames do not
+    let o = Command::new("sh").args(["-c", &cmd]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("compact [bpm-mu0]: writing output")
+            && stderr(&o).contains("File too large"),
+        "{}",
+        stderr(&o)
+    );
+    let kept = checkpoints(&dir.join("g"));
+    assert_eq!(kept.len(), 2, "prepare and discretise stay");
+    // space is back: the run resumes and finishes; the earlier stages are not redone
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(common::stdout(&o).matches("cached").count(), 2);
+    assert_eq!(checkpoints(&dir.join("g")).len(), 3);
+    assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
+    let _ = std::fs::remove_dir_all(&dir);
+}
