@@ -236,3 +236,31 @@ fn a_run_that_fills_its_disk_fails_clearly_keeps_its_checkpoints_and_resumes() {
     assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_failed_contact_solution_stops_the_run_early_and_saves_nothing() {
+    let dir = temp_dir("fault");
+    // two disks placed one inside the other: contacts never push overlaps apart, so this
+    // can only be a bad packing; the run must say so at once, not run on with it
+    let yaml = "name: f\nprepare:\n  layout: explicit\n  duration: 0.1\n  time_step: 1.0e-4\n  bodies:\n    - position: [0.0, 0.01]\n      radius: 0.005\n    - position: [0.003, 0.01]\n      radius: 0.005\n  walls:\n    - from: [-1.0, 0.0]\n      to: [1.0, 0.0]\n";
+    let file = write(&dir, "f.yaml", yaml);
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("prepare [explicit]: step 0: disks 0 and 1 overlap by 7.000e-3 m"),
+        "{err}"
+    );
+    assert!(
+        checkpoints(&dir.join("f")).is_empty(),
+        "no checkpoint of a bad state"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

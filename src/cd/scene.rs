@@ -32,6 +32,15 @@ pub struct CdParams {
 pub enum CdError {
     #[error("step {step}: velocity of disk {body} is not finite")]
     NonFinite { step: u64, body: usize },
+    #[error(
+        "step {step}: disks {i} and {j} overlap by {overlap:.3e} m, more than half the smaller radius: the contacts have failed (a bad initial packing, or a step far too large)"
+    )]
+    Penetration {
+        step: u64,
+        i: usize,
+        j: usize,
+        overlap: f64,
+    },
 }
 
 /// What one step did.
@@ -198,6 +207,23 @@ impl<L: InteractionLaw> Scene<L> {
         for c in &contacts {
             if let Partner::Wall(w) = c.j {
                 self.wall_force[w as usize] += (c.p_n * c.n + c.p_t * crate::geom::perp(c.n)) / h;
+            }
+        }
+        // Guard: a deep overlap means the contact solution has failed; stop before the
+        // state is used or saved. Contacts only ever close to zero gap (METHODS.md §1.4).
+        let b = &self.bodies;
+        for c in &contacts {
+            if let Partner::Body(j) = c.j {
+                let (i, j) = (c.i as usize, j as usize);
+                let overlap = b.radius[i] + b.radius[j] - (b.pos[i] - b.pos[j]).norm();
+                if overlap > 0.5 * b.radius[i].min(b.radius[j]) {
+                    return Err(CdError::Penetration {
+                        step: self.steps,
+                        i,
+                        j,
+                        overlap,
+                    });
+                }
             }
         }
         self.time += h;
