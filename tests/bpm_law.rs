@@ -106,3 +106,12 @@ fn particles_of_different_grains_never_attract() {
         assert_eq!(s.bodies.pos, start, "gap {gap0}");
     }
 }
+
+#[test]
+fn at_the_default_step_the_same_pair_comes_together_without_alarm() {
+    let mut s = pair(0.3 * 2.0 * R, 0, 0, 0.0);
+    for _ in 0..2000 {
+        s.step().unwrap();
+    }
+    assert!(gap(&s).abs() < 1e-9, "gap {}", gap(&s));
+}

@@ -24,4 +24,4 @@ pub use bodies::Bodies;
 pub use contact::{Contact, Partner};
 pub use law::{Coulomb, InteractionLaw, LawTable};
 pub use nlgs::{NlgsParams, NlgsReport};
-pub use scene::{CdParams, Scene, StepReport};
+pub use scene::{CdError, CdParams, Scene, StepReport};
