@@ -264,3 +264,35 @@ fn a_failed_contact_solution_stops_the_run_early_and_saves_nothing() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn two_runs_started_together_on_one_folder_leave_one_valid_result() {
+    let dir = temp_dir("race");
+    let file = write(&dir, "g.yaml", DEPOSIT);
+    let (mut a, mut b) = (spawn(&file, &dir), spawn(&file, &dir));
+    let (sa, sb) = (a.wait().unwrap(), b.wait().unwrap());
+    let mut errs = String::new();
+    for c in [&mut a, &mut b] {
+        std::io::Read::read_to_string(c.stderr.as_mut().unwrap(), &mut errs).unwrap();
+    }
+    assert!(sa.success() || sb.success(), "{errs}");
+    if !(sa.success() && sb.success()) {
+        assert!(errs.contains("another softgrain run"), "{errs}");
+    }
+    // whatever the interleaving: one valid checkpoint, no temporary file, and it is reused
+    assert_eq!(checkpoints(&dir.join("g")).len(), 1);
+    assert!(temp_files(&dir).is_empty());
+    let o = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        common::stdout(&o).contains("cached"),
+        "{}",
+        common::stdout(&o)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
