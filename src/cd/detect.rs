@@ -12,7 +12,6 @@ pub struct Neighbours {
     ref_pos: Vec<V2>,
     half_skin: f64,
     range: f64,
-    pub rebuilds: u64,
 }
 
 impl Neighbours {
@@ -50,6 +49,5 @@ impl Neighbours {
         self.ref_pos = pos.to_vec();
         self.half_skin = 0.5 * skin;
         self.range = range;
-        self.rebuilds += 1;
     }
 }

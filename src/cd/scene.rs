@@ -98,11 +98,6 @@ impl<L: InteractionLaw> Scene<L> {
         }
     }
 
-    /// How many times the pair list has been rebuilt since this scene was created or loaded.
-    pub fn list_rebuilds(&self) -> u64 {
-        self.neighbours.rebuilds
-    }
-
     /// Advances one time step.
     pub fn step(&mut self) -> Result<StepReport, CdError> {
         let h = self.params.dt;
