@@ -104,8 +104,9 @@ impl<L: InteractionLaw> Scene<L> {
         let theta = self.params.theta;
         let pred = (1.0 - theta) * h;
         // 3. Geometry at q_TT = q⁻ + (1-θ) h V⁻, frozen for the step.
-        let pos_tt: Vec<V2> = if pred == 0.0 {
-            self.bodies.pos.clone()
+        // (θ = 1, the default: q_TT = q⁻, so the positions are used as they are, not copied)
+        let pos_tt: std::borrow::Cow<[V2]> = if pred == 0.0 {
+            std::borrow::Cow::Borrowed(&self.bodies.pos)
         } else {
             (self.bodies.pos.iter().zip(&self.bodies.vel))
                 .map(|(p, v)| p + pred * v)

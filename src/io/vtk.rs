@@ -393,7 +393,7 @@ pub fn write_vtu_with(path: &Path, frame: &Frame, level: u32) -> io::Result<()> 
 }
 
 /// A time series of frames, written as a ParaView `.pvd` collection.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Series {
     /// `(time, file name relative to the .pvd file)`, in push order.
     entries: Vec<(f64, String)>,

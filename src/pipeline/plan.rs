@@ -47,6 +47,9 @@ pub struct Node {
     /// Indices of the nodes this one reads.
     pub upstream: Vec<usize>,
     pub hash: blake3::Hash,
+    /// The soft-grain method of discretise and compact nodes (not part of the hash: it is
+    /// in the parameters already).
+    pub method: Option<Method>,
 }
 
 impl Node {
@@ -82,6 +85,7 @@ fn node<P: Serialize>(
         params,
         upstream,
         hash: h.finalize(),
+        method: None,
     }
 }
 
@@ -122,6 +126,7 @@ pub fn plan(p: &Pipeline) -> Vec<Node> {
                             vec![0],
                             &nodes,
                         ));
+                        nodes.last_mut().expect("pushed").method = Some(Method::Bpm);
                         discretised.push((nodes.len() - 1, case));
                     }
                 }
@@ -134,6 +139,7 @@ pub fn plan(p: &Pipeline) -> Vec<Node> {
                         vec![0],
                         &nodes,
                     ));
+                    nodes.last_mut().expect("pushed").method = Some(Method::Mpm);
                     discretised.push((nodes.len() - 1, "mpm".to_string()));
                 }
             }
@@ -147,6 +153,7 @@ pub fn plan(p: &Pipeline) -> Vec<Node> {
                 let params =
                     json!({"compact": c, "friction": mu, "solver": p.solver, "output": p.output});
                 nodes.push(node(Stage::Compact, case, &params, vec![*up], &nodes));
+                nodes.last_mut().expect("pushed").method = nodes[*up].method;
                 compacted.push(nodes.len() - 1);
             }
         }

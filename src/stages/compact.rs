@@ -9,7 +9,7 @@ use crate::bpm::{BpmLaw, measure};
 use crate::cd::{LawTable, Partner, Scene};
 use crate::config::{Compact, Layout, Pipeline, defaults};
 use crate::geom::{V2, Wall};
-use crate::io::vtk::{Data, Frame, Lines, write_vtu};
+use crate::io::vtk::{Data, Frame, Lines};
 use crate::pipeline::StageCtx;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -134,8 +134,8 @@ fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running,
         h0: top_y - bot_y,
         top,
         rows: Vec::new(),
-        frames: FrameLog::default(),
-        contact_frames: FrameLog::default(),
+        frames: FrameLog::particles(),
+        contact_frames: FrameLog::new("contacts", "contacts.pvd"),
         impulse_bottom: 0.0,
         impulse_top: 0.0,
         since_record: 0,
@@ -274,10 +274,7 @@ fn write_network(ctx: &StageCtx, st: &mut Running) -> std::io::Result<()> {
             pairs: &pairs,
             cell_data: vec![("normal_force", Data::Scalar(&force))],
         });
-    let file = format!("contacts_{:06}.vtu", st.contact_frames.entries.len());
-    write_vtu(&ctx.dir.join(&file), &frame)?;
-    st.contact_frames.entries.push((st.scene.time, file));
-    st.contact_frames.write_pvd(&ctx.dir.join("contacts.pvd"))
+    st.contact_frames.write(&ctx.dir, st.scene.time, &frame)
 }
 
 fn csv(rows: &[Row]) -> String {

@@ -124,7 +124,7 @@ pub fn run_bpm(
         t0,
         kinetic_energy: scene.bodies.kinetic_energy(),
     };
-    super::frames::FrameLog::default()
+    super::frames::FrameLog::particles()
         .write_disks(&ctx.dir, 0.0, &scene.bodies)
         .map_err(|e| format!("writing output in {}: {e}", ctx.dir.display()))?;
     let summary = format!(

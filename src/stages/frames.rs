@@ -1,20 +1,42 @@
-//! VTK frames of disk sets (rigid disks, BPM particles) for ParaView and pyvista.
+//! VTK frame series of a stage folder, for ParaView and pyvista.
 
 use crate::cd::Bodies;
 use crate::io::vtk::{Data, Frame, Series, write_vtu};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// The frames written so far in one stage folder (kept in snapshots, so a resumed stage
-/// continues the same `series.pvd`).
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+/// One series of frames in a stage folder, `<prefix>_NNNNNN.vtu` listed in `<pvd>`. It is
+/// kept in snapshots, so a resumed stage continues the same series.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FrameLog {
-    pub entries: Vec<(f64, String)>,
+    prefix: String,
+    pvd: String,
+    series: Series,
 }
 
 impl FrameLog {
-    /// Writes `frame_NNNNNN.vtu` with `grain_id`, `radius`, `velocity`, `omega` and
-    /// rewrites `series.pvd`.
+    pub fn new(prefix: &str, pvd: &str) -> Self {
+        FrameLog {
+            prefix: prefix.into(),
+            pvd: pvd.into(),
+            series: Series::new(),
+        }
+    }
+
+    /// The particles or points of a stage: `frame_NNNNNN.vtu` in `series.pvd`.
+    pub fn particles() -> Self {
+        FrameLog::new("frame", "series.pvd")
+    }
+
+    /// Writes the next frame at `time` and rewrites the collection file.
+    pub fn write(&mut self, dir: &Path, time: f64, frame: &Frame) -> std::io::Result<()> {
+        let file = format!("{}_{:06}.vtu", self.prefix, self.series.entries().len());
+        write_vtu(&dir.join(&file), frame)?;
+        self.series.push(time, &file);
+        self.series.write_pvd(&dir.join(&self.pvd))
+    }
+
+    /// A frame of disks with `grain_id`, `radius`, `velocity` and `omega`.
     pub fn write_disks(&mut self, dir: &Path, time: f64, b: &Bodies) -> std::io::Result<()> {
         let points: Vec<[f64; 2]> = b.pos.iter().map(|p| [p.x, p.y]).collect();
         let vel: Vec<[f64; 2]> = b.vel.iter().map(|v| [v.x, v.y]).collect();
@@ -24,18 +46,6 @@ impl FrameLog {
             .with("radius", Data::Scalar(&b.radius))
             .with("velocity", Data::Vector(&vel))
             .with("omega", Data::Scalar(&b.omega));
-        let file = format!("frame_{:06}.vtu", self.entries.len());
-        write_vtu(&dir.join(&file), &frame)?;
-        self.entries.push((time, file));
-        self.write_pvd(&dir.join("series.pvd"))
-    }
-
-    /// Writes the collection of every frame logged so far.
-    pub fn write_pvd(&self, path: &Path) -> std::io::Result<()> {
-        let mut series = Series::new();
-        for (t, f) in &self.entries {
-            series.push(*t, f);
-        }
-        series.write_pvd(path)
+        self.write(dir, time, &frame)
     }
 }

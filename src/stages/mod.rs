@@ -8,7 +8,7 @@ pub mod mpm_single;
 pub mod prepare;
 
 use crate::cd::{CdParams, NlgsParams};
-use crate::config::{Layout, Pipeline, Solver};
+use crate::config::{Layout, Method, Pipeline, Solver};
 use crate::geom::V2;
 use crate::pipeline::{Node, Stage, StageCtx};
 use serde::{Deserialize, Serialize};
@@ -61,7 +61,7 @@ pub fn supported(p: &Pipeline, node: &Node) -> Result<(), String> {
     let packing = p.prepare.layout == Layout::Packing;
     match node.stage {
         Stage::Prepare => Ok(()),
-        Stage::Discretise | Stage::Compact if packing && node.case.starts_with("mpm") => {
+        Stage::Discretise | Stage::Compact if packing && node.method == Some(Method::Mpm) => {
             Err(format!(
                 "the MPM {} stage of packings is not built in this version (single grains are)",
                 node.stage.name()
@@ -88,7 +88,7 @@ pub fn run(
             let (state, summary) = prepare::run(p, ctx)?;
             Ok((StageState::Prepared(state), summary))
         }
-        (Stage::Discretise, [StageState::Prepared(prep)]) if node.case == "mpm" => {
+        (Stage::Discretise, [StageState::Prepared(prep)]) if node.method == Some(Method::Mpm) => {
             let m = p
                 .discretise
                 .as_ref()

@@ -4,7 +4,7 @@
 
 use super::frames::FrameLog;
 use crate::config::{Compact, Model, Mpm, Pipeline, Shape};
-use crate::io::vtk::{Data, Frame, write_vtu};
+use crate::io::vtk::{Data, Frame};
 use crate::mpm::driver::{PointState, Row, RunStats, SingleGrain, SingleGrainParams};
 use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::shape::ShapeKind;
@@ -129,7 +129,7 @@ pub fn compact(
         Some(s) => s,
         None => (
             SingleGrain::new(params(g, c)).map_err(|e| e.to_string())?,
-            FrameLog::default(),
+            FrameLog::particles(),
         ),
     };
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
@@ -214,9 +214,5 @@ fn write_frame(ctx: &StageCtx, run: &mut (SingleGrain, FrameLog)) -> std::io::Re
         .with("volume", Data::Scalar(&s.volume))
         .with("velocity", Data::Vector(&vel))
         .with("stress", Data::tensor_zz(&stress, &zz));
-    let log = &mut run.1;
-    let file = format!("frame_{:06}.vtu", log.entries.len());
-    write_vtu(&ctx.dir.join(&file), &frame)?;
-    log.entries.push((run.0.time, file));
-    log.write_pvd(&ctx.dir.join("series.pvd"))
+    run.1.write(&ctx.dir, run.0.time, &frame)
 }

@@ -219,7 +219,7 @@ fn start(p: &Pipeline) -> Result<Running, String> {
         scene,
         box_width,
         figures,
-        frames: FrameLog::default(),
+        frames: FrameLog::particles(),
         trajectories: "time,body,x,y,vx,vy,omega\n".into(),
         floor_window: Vec::new(),
         settle_after,
@@ -310,7 +310,7 @@ fn single(prep: &Prepare, ctx: &StageCtx) -> Result<(Prepared, String), String> 
     let r = prep.radius.expect("validated");
     let mut bodies = Bodies::default();
     bodies.push(V2::new(0.0, r), r, prep.density, 0);
-    let mut frames = FrameLog::default();
+    let mut frames = FrameLog::particles();
     frames
         .write_disks(&ctx.dir, 0.0, &bodies)
         .map_err(|e| format!("writing output in {}: {e}", ctx.dir.display()))?;
