@@ -3,6 +3,7 @@
 
 pub mod bpm;
 pub mod cd;
+pub mod compaction;
 pub mod config;
 pub mod geom;
 pub mod io;

@@ -39,6 +39,11 @@ pub const BPM_STEP: f64 = 0.1;
 /// Steps of relaxation of freshly built aggregates under their own attraction.
 pub const BPM_RELAX_STEPS: u64 = 400;
 
+// ---- compact ----
+/// Packing fraction at the start of a packing's compaction: the paper's unjammed 0.65
+/// (Fig. 8a). The deposit is stretched vertically to fill the box (`compaction.rs`).
+pub const INITIAL_PHI: f64 = 0.65;
+
 // ---- contact-dynamics solver ----
 /// θ of the Moreau-Jean scheme: 1 closes contacts exactly (METHODS.md §1.1).
 pub const THETA: f64 = 1.0;

@@ -313,6 +313,13 @@ pub struct Compact {
     /// Time step (s). BPM default: 0.1 t0, t0 = sqrt(m a0 / F0) of the smallest particle.
     #[serde(default)]
     pub time_step: Option<f64>,
+    /// Packings: packing fraction at ε = 0, which places the top wall (the paper: 0.65).
+    #[serde(default = "initial_phi")]
+    pub initial_phi: f64,
+}
+
+fn initial_phi() -> f64 {
+    d::INITIAL_PHI
 }
 
 fn no_friction() -> OneOrMany<f64> {

@@ -61,6 +61,9 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
     }
     if let Some(c) = &p.compact {
         positive("compact.wall_velocity", c.wall_velocity)?;
+        if !(c.initial_phi > 0.0 && c.initial_phi < 1.0) {
+            fail("compact.initial_phi", c.initial_phi, "must be in (0, 1)")?;
+        }
         if !(c.final_strain > 0.0 && c.final_strain < 1.0) {
             fail("compact.final_strain", c.final_strain, "must be in (0, 1)")?;
         }

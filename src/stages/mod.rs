@@ -21,6 +21,8 @@ pub enum StageState {
     Compacted(compact::Compacted),
     Mpm(mpm_single::MpmGrain),
     MpmCompacted(mpm_single::MpmCompacted),
+    /// A compacted packing, either method.
+    Packing(crate::compaction::PackingCompacted),
 }
 
 impl StageState {
@@ -31,6 +33,7 @@ impl StageState {
             StageState::Bpm(g) => serde_json::to_value(&g.figures).unwrap_or_default(),
             StageState::Compacted(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
             StageState::Mpm(g) => serde_json::to_value(g).unwrap_or_default(),
+            StageState::Packing(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
             StageState::MpmCompacted(c) => {
                 serde_json::json!({"stats": c.stats, "small_strain": c.small_strain})
             }

@@ -1,0 +1,312 @@
+//! What the two methods share when a packing is compacted: the box and the unjammed initial
+//! layout at Φ0, the recorded row of the time series, and the grain coordination numbers.
+//! Engine-neutral: the BPM and MPM compact stages fill the same `Row`, and the analyse
+//! stage reads nothing else.
+
+use crate::geom::V2;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+
+/// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
+/// `h0` at ε = 0 moving down.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BoxGeometry {
+    pub width: f64,
+    pub h0: f64,
+}
+
+impl BoxGeometry {
+    /// Height of the box at cumulative strain ε = ln(h0/h).
+    pub fn height(&self, strain: f64) -> f64 {
+        self.h0 * (-strain).exp()
+    }
+}
+
+/// The paper starts compaction from an unjammed state at Φ0 = 0.65 (Fig. 8a), looser than any
+/// rigid-disk deposit (≈ 0.80). Decision: the top wall is placed at h0 = Σ A / (Φ0 L) and the
+/// deposited centres are stretched vertically by s = h0 / h_deposit (x unchanged), so the
+/// grains fill the box with the deposit's neighbourhoods but no vertical contact. Returns the
+/// new centres and the box; an error if the deposit is already looser than Φ0.
+pub fn unjammed_layout(
+    centres: &[V2],
+    radii: &[f64],
+    width: f64,
+    phi0: f64,
+) -> Result<(Vec<V2>, BoxGeometry), String> {
+    let area: f64 = radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
+    let h0 = area / (phi0 * width);
+    let top = centres
+        .iter()
+        .zip(radii)
+        .map(|(c, r)| c.y + r)
+        .fold(0.0, f64::max);
+    if h0 < top {
+        return Err(format!(
+            "compact.initial_phi = {phi0} asks for a box of height {h0:.4e} m, lower than the deposit ({top:.4e} m, Φ = {:.3}): choose a smaller value",
+            area / (width * top)
+        ));
+    }
+    // s y + r <= s (y + r) <= h0 for s >= 1: every grain stays inside the box
+    let s = h0 / top;
+    let moved = centres.iter().map(|c| V2::new(c.x, c.y * s)).collect();
+    Ok((moved, BoxGeometry { width, h0 }))
+}
+
+/// One recorded row of a packing's compaction. Stresses are N/m over the wall length (Pa per
+/// unit thickness), compression positive, each the mean over the recording interval.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    pub time: f64,
+    /// ε = ln(h0/h).
+    pub strain: f64,
+    /// Grain area (BPM: the closing convention; MPM: Σ v_p) over the box area L h.
+    pub phi: f64,
+    /// 2 × (grain pairs in contact) / N_g, wall contacts excluded.
+    pub z: f64,
+    /// The same after removing rattlers iteratively.
+    pub z_star: f64,
+    /// Vertical stress on the bottom wall, F/L: the paper's σ.
+    pub sigma: f64,
+    pub sigma_top: f64,
+    pub sigma_left: f64,
+    pub sigma_right: f64,
+    /// Grain pairs in contact.
+    pub grain_contacts: usize,
+    pub rattlers: usize,
+    /// Mean solver iterations per step over the interval (NLGS sweeps, or contact-coupling
+    /// iterations for MPM).
+    pub iterations: f64,
+    /// Kinetic energy over the elastic energy scale (quasi-static check: small).
+    pub kinetic_ratio: f64,
+    /// Worst interpenetration between grains (BPM: particle overlap over the smallest particle
+    /// diameter; MPM: node gap over the cell size), ≥ 0.
+    pub overlap: f64,
+}
+
+/// The time series as CSV, the contract's `time,strain,phi,z,sigma` first.
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            r.time,
+            r.strain,
+            r.phi,
+            r.z,
+            r.sigma,
+            r.z_star,
+            r.sigma_top,
+            r.sigma_left,
+            r.sigma_right,
+            r.grain_contacts,
+            r.rattlers,
+            r.iterations,
+            r.kinetic_ratio,
+            r.overlap
+        );
+    }
+    s
+}
+
+/// What the compact stage of a packing keeps (its checkpoint payload), either method: the
+/// time series, the final configuration for pictures, and the run's key figures.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PackingCompacted {
+    pub method: crate::config::Method,
+    /// Inter-grain friction of this case.
+    pub friction: f64,
+    pub geometry: BoxGeometry,
+    pub grains: usize,
+    pub rows: Vec<Row>,
+    /// Final particles (BPM primary disks; MPM material points with their half-size).
+    pub particles: Vec<Particle>,
+    /// Final force network: BPM particle-particle contacts, MPM contact nodes.
+    pub network: Vec<ForceLine>,
+    pub figures: PackingFigures,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Particle {
+    pub pos: [f64; 2],
+    /// Radius (BPM) or half-size l_p (MPM) (m).
+    pub size: f64,
+    pub grain: u32,
+}
+
+/// A segment carrying a normal force (N/m): between two particle centres (BPM), or a short
+/// segment across a contact node along its normal (MPM).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ForceLine {
+    pub a: [f64; 2],
+    pub b: [f64; 2],
+    pub force: f64,
+    /// Whether the two ends belong to different grains.
+    pub between_grains: bool,
+}
+
+/// Key figures of a packing compaction, for `stage.json` and the report.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PackingFigures {
+    pub steps: u64,
+    pub time_step: f64,
+    /// Mean and largest solver iterations per step.
+    pub iterations_mean: f64,
+    pub iterations_max: u64,
+    pub unconverged_steps: u64,
+    /// Largest `Row::overlap` of the run.
+    pub overlap_max: f64,
+    /// Largest relative change of the total grain area (BPM) or mass (MPM) over the run.
+    pub area_change: f64,
+    /// Largest `Row::kinetic_ratio` after the first contact with the top wall.
+    pub kinetic_ratio_max: f64,
+}
+
+/// Grain coordination from the list of grain pairs in contact (each pair once, any order,
+/// duplicates allowed).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Coordination {
+    pub pairs: usize,
+    /// 2 pairs / N_g over all grains.
+    pub z: f64,
+    /// 2 pairs / N over the non-rattlers after iterative removal (0 when none is left).
+    pub z_star: f64,
+    pub rattlers: usize,
+}
+
+/// Z and Z*. Z counts grain pairs only (the paper's Z is between grains). A rattler has fewer
+/// than `min_contacts` contacts (2 with friction, 3 without: the fewest that can hold a disk
+/// in 2D), counting its `wall_contacts` and its grain contacts among the remaining grains;
+/// removing one can make others rattlers, so removal repeats until none is left.
+pub fn coordination(
+    n_grains: usize,
+    pairs: &[(usize, usize)],
+    wall_contacts: &[usize],
+    min_contacts: usize,
+) -> Coordination {
+    let mut unique: Vec<(usize, usize)> = pairs
+        .iter()
+        .filter(|(a, b)| a != b)
+        .map(|&(a, b)| (a.min(b), a.max(b)))
+        .collect();
+    unique.sort_unstable();
+    unique.dedup();
+    let walls = |g: usize| wall_contacts.get(g).copied().unwrap_or(0);
+    let mut degree: Vec<usize> = (0..n_grains).map(walls).collect();
+    for &(a, b) in &unique {
+        degree[a] += 1;
+        degree[b] += 1;
+    }
+    let mut alive = vec![true; n_grains];
+    let mut live_pairs = unique.len();
+    loop {
+        let out: Vec<usize> = (0..n_grains)
+            .filter(|&g| alive[g] && degree[g] < min_contacts)
+            .collect();
+        if out.is_empty() {
+            break;
+        }
+        for &g in &out {
+            alive[g] = false;
+        }
+        // recount from scratch: simple and exact
+        degree
+            .iter_mut()
+            .enumerate()
+            .for_each(|(g, d)| *d = walls(g));
+        live_pairs = 0;
+        for &(a, b) in &unique {
+            if alive[a] && alive[b] {
+                degree[a] += 1;
+                degree[b] += 1;
+                live_pairs += 1;
+            }
+        }
+    }
+    let kept = alive.iter().filter(|&&a| a).count();
+    Coordination {
+        pairs: unique.len(),
+        z: 2.0 * unique.len() as f64 / n_grains.max(1) as f64,
+        z_star: if kept > 0 {
+            2.0 * live_pairs as f64 / kept as f64
+        } else {
+            0.0
+        },
+        rattlers: n_grains - kept,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// n × n square lattice of grains, each touching its 4 neighbours.
+    fn lattice(n: usize) -> Vec<(usize, usize)> {
+        let id = |i: usize, j: usize| i * n + j;
+        let mut p = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                if i + 1 < n {
+                    p.push((id(i, j), id(i + 1, j)));
+                }
+                if j + 1 < n {
+                    p.push((id(i, j), id(i, j + 1)));
+                }
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn square_lattice_has_z_4_in_the_bulk() {
+        let n = 10;
+        let c = coordination(n * n, &lattice(n), &[], 2);
+        // 2 n (n-1) pairs: Z = 4 (n-1)/n exactly, → 4 in the bulk
+        assert_eq!(c.pairs, 2 * n * (n - 1));
+        assert!((c.z - 4.0 * 9.0 / 10.0).abs() < 1e-12);
+        assert_eq!(c.rattlers, 0);
+        assert!((c.z_star - c.z).abs() < 1e-12);
+        // frictionless and no walls: the corners (2 contacts) go, then their neighbours, and
+        // the lattice peels ring by ring down to nothing
+        assert_eq!(coordination(n * n, &lattice(n), &[], 3).rattlers, n * n);
+        // in a box every boundary grain also touches a wall (corners two): nothing is a rattler
+        let walls: Vec<usize> = (0..n * n)
+            .map(|g| {
+                usize::from(g / n == 0 || g / n == n - 1)
+                    + usize::from(g % n == 0 || g % n == n - 1)
+            })
+            .collect();
+        let boxed = coordination(n * n, &lattice(n), &walls, 3);
+        assert_eq!(boxed.rattlers, 0);
+        assert!((boxed.z - c.z).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_chain_is_all_rattlers_and_duplicates_count_once() {
+        let pairs = [(0, 1), (1, 0), (1, 2), (2, 3), (3, 3)];
+        let c = coordination(5, &pairs, &[], 2);
+        assert_eq!(c.pairs, 3);
+        assert!((c.z - 6.0 / 5.0).abs() < 1e-12);
+        // ends go first, then their neighbours: nothing is left
+        assert_eq!(c.rattlers, 5);
+        assert_eq!(c.z_star, 0.0);
+    }
+
+    #[test]
+    fn unjammed_layout_gives_phi0_and_keeps_grains_inside() {
+        let radii = [1.0, 1.0, 0.5];
+        let centres = [V2::new(1.0, 1.0), V2::new(3.0, 1.0), V2::new(2.0, 2.2)];
+        let width = 4.0;
+        let (moved, b) = unjammed_layout(&centres, &radii, width, 0.3).unwrap();
+        let area: f64 = radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
+        assert!((area / (b.width * b.h0) - 0.3).abs() < 1e-12);
+        for (c, r) in moved.iter().zip(radii) {
+            assert!(c.y - r >= -1e-12 && c.y + r <= b.h0 + 1e-12);
+        }
+        // horizontal neighbours keep their distance
+        assert!(((moved[1] - moved[0]).norm() - 2.0).abs() < 1e-12);
+        assert!(unjammed_layout(&centres, &radii, width, 0.9).is_err());
+    }
+}
