@@ -76,7 +76,8 @@ pub struct Row {
     /// Mean solver iterations per step over the interval (NLGS sweeps, or contact-coupling
     /// iterations for MPM).
     pub iterations: f64,
-    /// Kinetic energy over the elastic energy scale (quasi-static check: small).
+    /// Kinetic energy over the work the top wall has done since ε = 0 (quasi-static: ≪ 1;
+    /// NaN before the wall has done any work).
     pub kinetic_ratio: f64,
     /// Worst interpenetration between grains (BPM: particle overlap over the smallest particle
     /// diameter; MPM: node gap over the cell size), ≥ 0.

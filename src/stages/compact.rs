@@ -1,15 +1,14 @@
-//! The compact stage for BPM grains: a top plate moves down at constant speed onto the
-//! grains (one grain between two plates, or a packing in its box) until the cumulative
+//! The compact stage for one BPM grain: a top plate moves down at constant speed onto the
+//! grain until the cumulative
 //! strain ε = ln(h0/h) reaches `compact.final_strain`. Plate forces are impulses summed over
 //! each recording interval divided by its duration (mean forces: single CD steps are noisy).
 
 use super::discretise::BpmGrains;
 use super::frames::FrameLog;
 use crate::bpm::{BpmLaw, measure};
-use crate::cd::{LawTable, Partner, Scene};
-use crate::config::{Compact, Layout, Pipeline, defaults};
+use crate::cd::{LawTable, Scene};
+use crate::config::{Compact, Pipeline, defaults};
 use crate::geom::{V2, Wall};
-use crate::io::vtk::{Data, Frame, Lines};
 use crate::pipeline::StageCtx;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -90,23 +89,18 @@ fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running,
             .fold(f64::NEG_INFINITY, f64::max),
     );
     let span = hi_x - lo_x + top_y - bot_y;
-    let walls = match g.layout {
-        Layout::Packing => {
-            return Err("BPM compaction of packings is not built yet (single grains only)".into());
-        }
-        // plates far wider than the grain will ever get
-        _ => vec![
-            Wall::new(
-                V2::new(lo_x - 2.0 * span, bot_y),
-                V2::new(hi_x + 2.0 * span, bot_y),
-            ),
-            Wall {
-                a: V2::new(hi_x + 2.0 * span, top_y),
-                b: V2::new(lo_x - 2.0 * span, top_y),
-                velocity: V2::new(0.0, -c.wall_velocity),
-            },
-        ],
-    };
+    // plates far wider than the grain will ever get
+    let walls = vec![
+        Wall::new(
+            V2::new(lo_x - 2.0 * span, bot_y),
+            V2::new(hi_x + 2.0 * span, bot_y),
+        ),
+        Wall {
+            a: V2::new(hi_x + 2.0 * span, top_y),
+            b: V2::new(lo_x - 2.0 * span, top_y),
+            velocity: V2::new(0.0, -c.wall_velocity),
+        },
+    ];
     let (f0, t0) = match g.law {
         BpmLaw::Cohesive { f0, .. } => (f0, super::discretise::t0(b, f0)),
         BpmLaw::Coulomb { .. } => return Err("the grains carry no cohesive law".into()),
@@ -246,35 +240,9 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, cutoff: f64) -> std::i
     st.iterations_since = 0;
     if p.output.vtk {
         st.frames.write_disks(&ctx.dir, st.scene.time, b)?;
-        write_network(ctx, st)?;
+        st.contact_frames.write_network(&ctx.dir, &st.scene)?;
     }
     Ok(())
-}
-
-/// Paper Fig. 5c: a line per repulsive contact between particles, cell data `normal_force`.
-fn write_network(ctx: &StageCtx, st: &mut Running) -> std::io::Result<()> {
-    let b = &st.scene.bodies;
-    let h = st.scene.params.dt;
-    let points: Vec<[f64; 2]> = b.pos.iter().map(|p| [p.x, p.y]).collect();
-    let mut pairs = Vec::new();
-    let mut force = Vec::new();
-    for c in &st.scene.contacts {
-        if let Partner::Body(j) = c.j
-            && c.p_n > 0.0
-        {
-            pairs.push([c.i, j]);
-            force.push(c.p_n / h);
-        }
-    }
-    let grain: Vec<i32> = b.group.iter().map(|&g| g as i32).collect();
-    let frame = Frame::new(&points)
-        .with("grain_id", Data::Int(&grain))
-        .with("radius", Data::Scalar(&b.radius))
-        .with_lines(Lines {
-            pairs: &pairs,
-            cell_data: vec![("normal_force", Data::Scalar(&force))],
-        });
-    st.contact_frames.write(&ctx.dir, st.scene.time, &frame)
 }
 
 fn csv(rows: &[Row]) -> String {

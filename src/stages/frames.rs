@@ -1,7 +1,7 @@
 //! VTK frame series of a stage folder, for ParaView and pyvista.
 
-use crate::cd::Bodies;
-use crate::io::vtk::{Data, Frame, Series, write_vtu};
+use crate::cd::{Bodies, InteractionLaw, Partner, Scene};
+use crate::io::vtk::{Data, Frame, Lines, Series, write_vtu};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -47,5 +47,36 @@ impl FrameLog {
             .with("velocity", Data::Vector(&vel))
             .with("omega", Data::Scalar(&b.omega));
         self.write(dir, time, &frame)
+    }
+
+    /// Paper Figs. 5c and 8g: a line per repulsive disk-disk contact of the last step, cell
+    /// data `normal_force` (N/m, the step's impulse over h).
+    pub fn write_network<L: InteractionLaw>(
+        &mut self,
+        dir: &Path,
+        scene: &Scene<L>,
+    ) -> std::io::Result<()> {
+        let b = &scene.bodies;
+        let h = scene.params.dt;
+        let points: Vec<[f64; 2]> = b.pos.iter().map(|p| [p.x, p.y]).collect();
+        let mut pairs = Vec::new();
+        let mut force = Vec::new();
+        for c in &scene.contacts {
+            if let Partner::Body(j) = c.j
+                && c.p_n > 0.0
+            {
+                pairs.push([c.i, j]);
+                force.push(c.p_n / h);
+            }
+        }
+        let grain: Vec<i32> = b.group.iter().map(|&g| g as i32).collect();
+        let frame = Frame::new(&points)
+            .with("grain_id", Data::Int(&grain))
+            .with("radius", Data::Scalar(&b.radius))
+            .with_lines(Lines {
+                pairs: &pairs,
+                cell_data: vec![("normal_force", Data::Scalar(&force))],
+            });
+        self.write(dir, scene.time, &frame)
     }
 }

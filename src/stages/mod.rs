@@ -1,6 +1,7 @@
 //! Stages: thin glue from a config section and the upstream states to an engine call and a
 //! new state. Each stage's output is one variant of `StageState`, the checkpoint payload.
 
+pub mod bpm_packing;
 pub mod compact;
 pub mod discretise;
 pub mod frames;
@@ -70,10 +71,6 @@ pub fn supported(p: &Pipeline, node: &Node) -> Result<(), String> {
                 node.stage.name()
             ))
         }
-        Stage::Compact if packing => Err(
-            "the BPM compaction of packings is not built in this version (single grains are)"
-                .into(),
-        ),
         Stage::Discretise | Stage::Compact => Ok(()),
         Stage::Analyse => Err("the analyse stage is not built in this version".into()),
     }
@@ -110,6 +107,11 @@ pub fn run(
                 .map_err(|e| format!("bad planned parameters: {e}"))?;
             let (g, summary) = discretise::run_bpm(p, bpm, range, prep, ctx)?;
             Ok((StageState::Bpm(g), summary))
+        }
+        (Stage::Compact, [StageState::Bpm(g)]) if g.layout == Layout::Packing => {
+            let mu = node.params["friction"].as_f64().unwrap_or(0.0);
+            let (c, summary) = bpm_packing::run(p, mu, g, ctx)?;
+            Ok((StageState::Packing(c), summary))
         }
         (Stage::Compact, [StageState::Bpm(g)]) => {
             let mu = node.params["friction"].as_f64().unwrap_or(0.0);

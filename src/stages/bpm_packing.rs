@@ -1,0 +1,334 @@
+//! The compact stage of a BPM packing (paper section 4): the deposited grains, discretised
+//! into aggregates, are spread to the unjammed Φ0 (`compaction::unjammed_layout`) in a box
+//! with a fixed floor and side walls; the top wall moves down at `compact.wall_velocity`
+//! until ε = ln(h0/h) reaches `compact.final_strain`. Walls are frictionless by default,
+//! inter-grain contacts frictional per case, gravity `compact.gravity` (none by default).
+//!
+//! Measures (recorded every `output.every` steps, wall forces as interval means):
+//! * Φ: Σ grain areas / (L h), each grain's area by morphological closing of its particles
+//!   with the largest particle radius (METHODS.md §2.4). The top wall is placed with the
+//!   nominal areas π R² (as for MPM, whose Σ v_p = π R² exactly), so the reported Φ(0) is
+//!   Φ0 times the aggregates' closed-to-nominal area ratio (below 1: the particles lie inside
+//!   the circle, and coarse aggregates lose more of it).
+//! * Z: grain pairs with at least one particle contact carrying a positive impulse in the
+//!   last step; Z* after removing rattlers (`compaction::coordination`, wall contacts count
+//!   toward holding a grain).
+//! * overlap: largest particle-particle overlap between different grains over d_min.
+//! * kinetic_ratio: kinetic energy over the work the walls have done so far.
+
+use super::discretise::BpmGrains;
+use super::frames::FrameLog;
+use crate::bpm::{BpmLaw, measure};
+use crate::cd::{LawTable, Partner, Scene};
+use crate::compaction::{
+    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row,
+};
+use crate::config::{Compact, Method, Pipeline, defaults};
+use crate::geom::{V2, Wall};
+use crate::packing;
+use crate::pipeline::StageCtx;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Wall indices: floor, left, right from `packing::box_walls`, then the moving top.
+const FLOOR: usize = 0;
+const LEFT: usize = 1;
+const RIGHT: usize = 2;
+const TOP: usize = 3;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct Running {
+    scene: Scene<BpmLaw>,
+    geometry: BoxGeometry,
+    friction: f64,
+    grains: usize,
+    /// Σ closed grain areas at the start (m²).
+    area0: f64,
+    rows: Vec<Row>,
+    frames: FrameLog,
+    network_frames: FrameLog,
+    /// Impulses of each wall on the grains since the last row (N s/m).
+    impulse: [V2; 4],
+    /// Work done by the walls since the start (J/m).
+    wall_work: f64,
+    since_record: u64,
+    iterations_since: u64,
+    touched: bool,
+    figures: PackingFigures,
+}
+
+/// Closed area of every grain (m²), in parallel over grains.
+fn grain_areas(b: &crate::cd::Bodies, grains: usize) -> Vec<f64> {
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); grains];
+    for (i, &g) in b.group.iter().enumerate() {
+        members[g as usize].push(i);
+    }
+    let r_min = b.radius.iter().cloned().fold(f64::INFINITY, f64::min);
+    members
+        .par_iter()
+        .map(|m| {
+            let pos: Vec<V2> = m.iter().map(|&i| b.pos[i]).collect();
+            let rad: Vec<f64> = m.iter().map(|&i| b.radius[i]).collect();
+            let s = rad.iter().cloned().fold(0.0, f64::max);
+            // pixel r_min / 2: the area to about 1% at a few ms per grain
+            measure::closed_area(&pos, &rad, s, 0.5 * r_min)
+        })
+        .collect()
+}
+
+fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running, String> {
+    let mut b = g.bodies.clone();
+    let grains = g.grain_radius.len();
+    // each grain's centre: the area-weighted mean of its particles
+    let mut centre = vec![V2::zeros(); grains];
+    let mut weight = vec![0.0; grains];
+    for i in 0..b.len() {
+        let (k, a) = (b.group[i] as usize, b.radius[i] * b.radius[i]);
+        centre[k] += b.pos[i] * a;
+        weight[k] += a;
+    }
+    for (x, w) in centre.iter_mut().zip(&weight) {
+        *x /= *w;
+    }
+    let (moved, geometry) =
+        compaction::unjammed_layout(&centre, &g.grain_radius, g.box_width, c.initial_phi)?;
+    for i in 0..b.len() {
+        let k = b.group[i] as usize;
+        b.pos[i] += moved[k] - centre[k];
+    }
+    let t0 = match g.law {
+        BpmLaw::Cohesive { f0, .. } => super::discretise::t0(&b, f0),
+        BpmLaw::Coulomb { .. } => return Err("the grains carry no cohesive law".into()),
+    };
+    let dt = c.time_step.unwrap_or(defaults::BPM_STEP * t0);
+    if dt > 0.5 * t0 {
+        return Err(format!(
+            "compact.time_step = {dt:e} s is above the stability limit of the explicit attraction, 0.5 t0 = {:e} s",
+            0.5 * t0
+        ));
+    }
+    let r_max = g.grain_radius.iter().cloned().fold(0.0, f64::max);
+    let mut walls = packing::box_walls(geometry.width, geometry.h0, r_max);
+    walls.push(Wall {
+        a: V2::new(geometry.width + r_max, geometry.h0),
+        b: V2::new(-r_max, geometry.h0),
+        velocity: V2::new(0.0, -c.wall_velocity),
+    });
+    let d_min = 2.0 * b.radius.iter().cloned().fold(f64::INFINITY, f64::min);
+    let params = super::cd_params(&p.solver, dt, c.gravity, d_min);
+    let wall_laws = vec![
+        BpmLaw::Coulomb {
+            mu: c.wall_friction
+        };
+        walls.len()
+    ];
+    let laws = LawTable::new(g.law, BpmLaw::Coulomb { mu }, wall_laws);
+    let area0 = grain_areas(&b, grains).iter().sum();
+    Ok(Running {
+        scene: Scene::new(b, walls, laws, params, p.seed),
+        geometry,
+        friction: mu,
+        grains,
+        area0,
+        rows: Vec::new(),
+        frames: FrameLog::particles(),
+        network_frames: FrameLog::new("contacts", "contacts.pvd"),
+        impulse: [V2::zeros(); 4],
+        wall_work: 0.0,
+        since_record: 0,
+        iterations_since: 0,
+        touched: false,
+        figures: PackingFigures {
+            time_step: dt,
+            ..Default::default()
+        },
+    })
+}
+
+fn height(st: &Running) -> f64 {
+    st.scene.walls[TOP].a.y - st.scene.walls[FLOOR].a.y
+}
+
+pub fn run(
+    p: &Pipeline,
+    mu: f64,
+    g: &BpmGrains,
+    ctx: &StageCtx,
+) -> Result<(PackingCompacted, String), String> {
+    let c = p.compact.as_ref().expect("planned with a compact section");
+    let mut st = match ctx.load_snapshot::<Running>() {
+        Some(st) => st,
+        None => new_run(p, c, mu, g)?,
+    };
+    let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
+    let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
+    let every = p.output.every.max(1);
+    if st.rows.is_empty() {
+        record(p, ctx, &mut st).map_err(io)?;
+    }
+    while (st.geometry.h0 / height(&st)).ln() < c.final_strain {
+        let r = st.scene.step().map_err(|e| e.to_string())?;
+        let h = st.scene.params.dt;
+        for (k, imp) in st.impulse.iter_mut().enumerate() {
+            *imp += st.scene.wall_force[k] * h;
+        }
+        st.wall_work += st.scene.wall_force[TOP].dot(&st.scene.walls[TOP].velocity) * h;
+        st.since_record += 1;
+        st.iterations_since += r.nlgs.iterations as u64;
+        let f = &mut st.figures;
+        f.steps += 1;
+        f.iterations_max = f.iterations_max.max(r.nlgs.iterations as u64);
+        f.unconverged_steps += u64::from(!r.nlgs.converged);
+        f.iterations_mean += r.nlgs.iterations as f64;
+        if st.scene.steps % every == 0 {
+            record(p, ctx, &mut st).map_err(io)?;
+            let strain = st.rows.last().map_or(0.0, |r| r.strain);
+            bar.set(
+                (strain * 1e4) as u64,
+                format!("ε = {strain:.3}, {} sweeps/step", r.nlgs.iterations),
+            );
+        }
+        if p.output.snapshot_every > 0 && st.scene.steps % p.output.snapshot_every == 0 {
+            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
+                .map_err(io)?;
+        }
+        if ctx.interrupted() {
+            ctx.save_snapshot(&st).map_err(io)?;
+            return Err(crate::pipeline::INTERRUPTED.into());
+        }
+    }
+    if st.since_record > 0 {
+        record(p, ctx, &mut st).map_err(io)?;
+    }
+    bar.finish();
+    finish(ctx, st)
+}
+
+/// Closes a recording interval: one row, one particle frame and one force-network frame.
+fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()> {
+    let scene = &st.scene;
+    let b = &scene.bodies;
+    let span = st.since_record as f64 * scene.params.dt;
+    let mean = |k: usize| {
+        if span > 0.0 {
+            st.impulse[k] / span
+        } else {
+            V2::zeros()
+        }
+    };
+    let (width, h) = (st.geometry.width, height(st));
+    let area: f64 = grain_areas(b, st.grains).iter().sum();
+    let d_min = 2.0 * b.radius.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mut pairs = Vec::new();
+    // walls touched by each grain, one bit each
+    let mut walls = vec![0u8; st.grains];
+    let mut overlap: f64 = 0.0;
+    for (c, gap) in scene.contacts.iter().zip(scene.current_gaps()) {
+        let gi = b.group[c.i as usize] as usize;
+        match c.j {
+            Partner::Body(j) if b.group[j as usize] as usize != gi => {
+                overlap = overlap.max(-gap / d_min);
+                if c.p_n > 0.0 {
+                    pairs.push((gi, b.group[j as usize] as usize));
+                }
+            }
+            Partner::Wall(w) if c.p_n > 0.0 => walls[gi] |= 1 << w,
+            _ => {}
+        }
+    }
+    let wall_contacts: Vec<usize> = walls.iter().map(|w| w.count_ones() as usize).collect();
+    let min_contacts = if st.friction > 0.0 { 2 } else { 3 };
+    let z = compaction::coordination(st.grains, &pairs, &wall_contacts, min_contacts);
+    let kinetic = b.kinetic_energy();
+    let row = Row {
+        time: scene.time,
+        strain: (st.geometry.h0 / h).ln(),
+        phi: area / (width * h),
+        z: z.z,
+        z_star: z.z_star,
+        sigma: mean(FLOOR).y / width,
+        sigma_top: -mean(TOP).y / width,
+        sigma_left: mean(LEFT).x / h,
+        sigma_right: -mean(RIGHT).x / h,
+        grain_contacts: z.pairs,
+        rattlers: z.rattlers,
+        iterations: st.iterations_since as f64 / st.since_record.max(1) as f64,
+        // undefined (NaN) before the top wall has done any work
+        kinetic_ratio: if st.wall_work > 0.0 {
+            kinetic / st.wall_work
+        } else {
+            f64::NAN
+        },
+        overlap: overlap.max(0.0),
+    };
+    let f = &mut st.figures;
+    f.overlap_max = f.overlap_max.max(row.overlap);
+    f.area_change = f.area_change.max((area / st.area0 - 1.0).abs());
+    st.touched |= row.sigma_top > 0.0;
+    if st.touched && row.kinetic_ratio.is_finite() {
+        f.kinetic_ratio_max = f.kinetic_ratio_max.max(row.kinetic_ratio);
+    }
+    st.rows.push(row);
+    st.impulse = [V2::zeros(); 4];
+    st.since_record = 0;
+    st.iterations_since = 0;
+    if p.output.vtk {
+        st.frames
+            .write_disks(&ctx.dir, st.scene.time, &st.scene.bodies)?;
+        st.network_frames.write_network(&ctx.dir, &st.scene)?;
+    }
+    Ok(())
+}
+
+fn finish(ctx: &StageCtx, st: Running) -> Result<(PackingCompacted, String), String> {
+    let mut f = st.figures;
+    f.iterations_mean /= f.steps.max(1) as f64;
+    ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
+        .map_err(|e| format!("writing output in {}: {e}", ctx.dir.display()))?;
+    let b = &st.scene.bodies;
+    let h = st.scene.params.dt;
+    let network = st
+        .scene
+        .contacts
+        .iter()
+        .filter(|c| c.p_n > 0.0)
+        .filter_map(|c| match c.j {
+            Partner::Body(j) => {
+                let (i, j) = (c.i as usize, j as usize);
+                Some(ForceLine {
+                    a: [b.pos[i].x, b.pos[i].y],
+                    b: [b.pos[j].x, b.pos[j].y],
+                    force: c.p_n / h,
+                    between_grains: b.group[i] != b.group[j],
+                })
+            }
+            Partner::Wall(_) => None,
+        })
+        .collect();
+    let particles = (0..b.len())
+        .map(|i| Particle {
+            pos: [b.pos[i].x, b.pos[i].y],
+            size: b.radius[i],
+            grain: b.group[i],
+        })
+        .collect();
+    let last = st.rows.last().cloned().unwrap_or_default();
+    let summary = format!(
+        "{} steps, {:.0} NLGS sweeps/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.1e} d_min",
+        f.steps, f.iterations_mean, last.strain, last.phi, last.z, last.sigma, f.overlap_max
+    );
+    Ok((
+        PackingCompacted {
+            method: Method::Bpm,
+            friction: st.friction,
+            geometry: st.geometry,
+            grains: st.grains,
+            rows: st.rows,
+            particles,
+            network,
+            figures: f,
+        },
+        summary,
+    ))
+}
