@@ -100,7 +100,7 @@ fn hashes(dir: &std::path::Path, text: &str, sets: &[&str]) -> Vec<(Stage, Strin
     let f = write(dir, "g.yaml", text);
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
     let l = config::load(&f, &sets).unwrap();
-    plan(&l.pipeline)
+    plan(&l)
         .into_iter()
         .map(|n| (n.stage, n.case.clone(), n.short()))
         .collect()
@@ -263,5 +263,57 @@ fn two_pipelines_share_their_common_upstream_work() {
         checkpoints(&dir.join("other")),
     );
     assert_eq!(std::fs::read(&x[0]).unwrap(), std::fs::read(&y[0]).unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_included_pipeline_joins_the_graph_with_its_own_hashes_and_checkpoints() {
+    let dir = temp_dir("include");
+    let inc = write(&dir, "small.yaml", SMALL);
+    let main = write(
+        &dir,
+        "main.yaml",
+        &format!(
+            "{}include: [small.yaml]\n",
+            SMALL
+                .replace("name: small", "name: main")
+                .replace("seed: 3", "seed: 4")
+        ),
+    );
+    let standalone = config::load(&inc, &[]).unwrap();
+    let both = config::load(&main, &[]).unwrap();
+    let nodes = plan(&both);
+    let names: Vec<String> = nodes.iter().map(|n| n.case.clone()).collect();
+    assert_eq!(names, ["small.deposit", "deposit"]);
+    // the included node hashes exactly as the file run alone, so their work is shared
+    assert_eq!(nodes[0].hash, plan(&standalone)[0].hash);
+    assert_ne!(nodes[0].hash, nodes[1].hash);
+    let out = dir.to_str().unwrap();
+    assert!(
+        softgrain(&["pipeline", "run", inc.to_str().unwrap(), "--out", out])
+            .status
+            .success()
+    );
+    let o = softgrain(&["pipeline", "run", main.to_str().unwrap(), "--out", out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("small.deposit") && text.contains("cached (from small)"),
+        "{text}"
+    );
+    assert!(dir.join("main/prepare/deposit/stage.json").exists());
+    // an include that is not valid names the including file and key
+    let bad = write(
+        &dir,
+        "bad.yaml",
+        "name: bad\ninclude: [missing.yaml]\nprepare:\n  grains: 5\n  diameter: [1.0e-3, 2.0e-3]\n",
+    );
+    let o = softgrain(&["validate", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(
+        e.contains("bad.yaml") && e.contains("include[0]") && e.contains("missing.yaml"),
+        "{e}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

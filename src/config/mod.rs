@@ -55,6 +55,26 @@ impl std::error::Error for InputError {}
 pub struct Loaded {
     pub pipeline: Pipeline,
     pub file: PathBuf,
+    /// The pipelines named under `include`, loaded and validated the same way.
+    pub included: Vec<Loaded>,
+}
+
+impl Loaded {
+    /// The pipeline a planned node belongs to (0: this one, k: the k-th included).
+    pub fn pipeline(&self, source: usize) -> &Pipeline {
+        match source {
+            0 => &self.pipeline,
+            k => &self.included[k - 1].pipeline,
+        }
+    }
+
+    /// The file a planned node comes from.
+    pub fn file(&self, source: usize) -> &Path {
+        match source {
+            0 => &self.file,
+            k => &self.included[k - 1].file,
+        }
+    }
 }
 
 /// Reads, overrides and validates a pipeline file.
@@ -103,9 +123,37 @@ fn load_inner(file: &Path, sets: &[String]) -> Result<Loaded, InputError> {
         from_set: set_keys.contains(&key),
         ..err(&key, &value, message)
     })?;
+    let mut included = Vec::new();
+    for (k, name) in pipeline.include.iter().enumerate() {
+        let key = format!("include[{k}]");
+        let path = file.parent().unwrap_or(Path::new(".")).join(name);
+        let inc = load_inner(&path, &[]).map_err(|e| InputError {
+            at: locate::key_position(&text, "include"),
+            ..err(
+                &key,
+                name,
+                format!("the included pipeline is not valid: {e}"),
+            )
+        })?;
+        if !inc.included.is_empty() {
+            return Err(InputError {
+                at: locate::key_position(&text, "include"),
+                ..err(
+                    &key,
+                    name,
+                    "an included pipeline may not include others".into(),
+                )
+            });
+        }
+        if inc.pipeline.name == pipeline.name {
+            return Err(err(&key, name, "has the same name as this pipeline".into()));
+        }
+        included.push(inc);
+    }
     Ok(Loaded {
         pipeline,
         file: file.to_path_buf(),
+        included,
     })
 }
 

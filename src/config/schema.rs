@@ -21,6 +21,12 @@ pub struct Pipeline {
     pub compact: Option<Compact>,
     #[serde(default)]
     pub analyse: Option<Analyse>,
+    /// Other pipeline files (paths relative to this one) whose stages join this graph, their
+    /// cases prefixed by their name: `paper.yaml` includes the single-grain pipelines, so its
+    /// analyse stage sees them. They keep their own seed and settings (and so their hashes
+    /// and checkpoints); `--set` applies to this file only.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub include: Vec<String>,
 }
 
 fn seed() -> u64 {

@@ -116,15 +116,15 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {
 
 /// Runs the pipeline; returns each node with its outcome.
 pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, RunError> {
-    let nodes = plan(&loaded.pipeline);
+    let nodes = plan(loaded);
     let wanted: Vec<usize> = (0..nodes.len())
         .filter(|&k| opts.until.is_none_or(|u| nodes[k].stage <= u))
         .collect();
     // Refuse what this build cannot do before any work starts.
     for &k in &wanted {
-        if let Err(why) = stages::supported(&loaded.pipeline, &nodes[k]) {
+        if let Err(why) = stages::supported(loaded.pipeline(nodes[k].source), &nodes[k]) {
             return Err(Box::new(InputError {
-                file: loaded.file.clone(),
+                file: loaded.file(nodes[k].source).to_path_buf(),
                 key: nodes[k].stage.name().into(),
                 value: nodes[k].case.clone(),
                 message: format!("{why}; remove it from the pipeline or stop earlier with --until"),
@@ -163,9 +163,7 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
                 None => {
                     // Equal names are equal work: another pipeline under the same --out
                     // may have computed this node already.
-                    if let Some((state, from)) =
-                        shared_checkpoint(&opts.out, &root, &node.checkpoint_name())
-                    {
+                    if let Some((state, from)) = shared_checkpoint(&opts.out, &root, node) {
                         store::save(&path, &state).map_err(io_err(&path))?;
                         report(opts, node, &format!("cached (from {from})"));
                         states[k] = Some(state);
@@ -189,8 +187,8 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
             .map(|&u| states[u].as_ref().expect("upstream runs first"))
             .collect();
         let start = Instant::now();
-        let (state, summary) =
-            stages::run(&loaded.pipeline, node, &upstream, &ctx).map_err(|cause| {
+        let (state, summary) = stages::run(loaded.pipeline(node.source), node, &upstream, &ctx)
+            .map_err(|cause| {
                 let (stage, case) = (node.stage.name(), node.case.clone());
                 if cause == INTERRUPTED {
                     RunError::Interrupted { stage, case }
@@ -219,20 +217,32 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
     Ok(outcomes)
 }
 
-/// A valid checkpoint of this name in a sibling pipeline's folder under `out`, with that
+/// A valid checkpoint of this node's stage and hash (under any case name: an included
+/// pipeline's cases carry a prefix) in a sibling pipeline's folder under `out`, with that
 /// pipeline's name.
-fn shared_checkpoint(out: &Path, own: &Path, name: &str) -> Option<(StageState, String)> {
-    let mut dirs: Vec<PathBuf> = std::fs::read_dir(out)
+fn shared_checkpoint(out: &Path, own: &Path, node: &Node) -> Option<(StageState, String)> {
+    let (head, tail) = (
+        format!("{}.", node.stage.name()),
+        format!(".{}.ckpt", node.short()),
+    );
+    let mut files: Vec<PathBuf> = std::fs::read_dir(out)
         .ok()?
         .flatten()
         .map(|e| e.path())
+        .filter(|d| d != own)
+        .filter_map(|d| std::fs::read_dir(d.join("checkpoints")).ok())
+        .flat_map(|entries| entries.flatten().map(|e| e.path()))
+        .filter(|f| {
+            f.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(&head) && n.ends_with(&tail))
+        })
         .collect();
-    dirs.sort();
-    dirs.into_iter().filter(|d| d != own).find_map(|d| {
-        let state = store::load::<StageState>(&d.join("checkpoints").join(name))
-            .ok()??
-            .ok()?;
-        Some((state, d.file_name()?.to_string_lossy().into_owned()))
+    files.sort();
+    files.into_iter().find_map(|f| {
+        let state = store::load::<StageState>(&f).ok()??.ok()?;
+        let pipeline = f.parent()?.parent()?.file_name()?;
+        Some((state, pipeline.to_string_lossy().into_owned()))
     })
 }
 
@@ -258,7 +268,7 @@ pub fn status(loaded: &Loaded, out: &Path) -> Vec<(Node, &'static str)> {
                 .collect()
         })
         .unwrap_or_default();
-    plan(&loaded.pipeline)
+    plan(loaded)
         .into_iter()
         .map(|node| {
             let own = node.checkpoint_name();

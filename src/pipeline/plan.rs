@@ -4,7 +4,7 @@
 //! always has equal names and `--set` hashes exactly like an edited file.
 
 use super::codec::FORMAT_VERSION;
-use crate::config::{Layout, Method, Pipeline};
+use crate::config::{Layout, Loaded, Method, Pipeline};
 use serde::Serialize;
 use serde_json::json;
 
@@ -50,6 +50,8 @@ pub struct Node {
     /// The soft-grain method of discretise and compact nodes (not part of the hash: it is
     /// in the parameters already).
     pub method: Option<Method>,
+    /// The pipeline the node comes from: 0 this file, k its k-th include (not hashed).
+    pub source: usize,
 }
 
 impl Node {
@@ -86,6 +88,7 @@ fn node<P: Serialize>(
         upstream,
         hash: h.finalize(),
         method: None,
+        source: 0,
     }
 }
 
@@ -94,9 +97,27 @@ fn mm(x: f64) -> String {
     format!("{}", (x * 1e3 * 1e6).round() / 1e6)
 }
 
-/// Plans every node of the pipeline in dependency order.
-pub fn plan(p: &Pipeline) -> Vec<Node> {
+/// Plans every node of the pipeline and its includes in dependency order: the included
+/// pipelines' stages first (cases prefixed `<name>.`), then this file's, then one analyse
+/// node over every compact node (or discretise node, where nothing is compacted).
+pub fn plan(loaded: &Loaded) -> Vec<Node> {
     let mut nodes = Vec::new();
+    let mut ends = Vec::new();
+    for (k, inc) in loaded.included.iter().enumerate() {
+        let prefix = format!("{}.", inc.pipeline.name);
+        ends.extend(plan_scene(&inc.pipeline, k + 1, &prefix, &mut nodes));
+    }
+    ends.extend(plan_scene(&loaded.pipeline, 0, "", &mut nodes));
+    if let Some(a) = &loaded.pipeline.analyse {
+        nodes.push(node(Stage::Analyse, "all".into(), a, ends, &nodes));
+    }
+    nodes
+}
+
+/// Appends the prepare, discretise and compact nodes of one pipeline; returns the nodes an
+/// analysis reads (its compact nodes, or its discretise nodes if it compacts nothing).
+fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) -> Vec<usize> {
+    let first = nodes.len();
     let case = match p.prepare.layout {
         Layout::Packing => "deposit",
         Layout::Single => "single",
@@ -104,44 +125,41 @@ pub fn plan(p: &Pipeline) -> Vec<Node> {
     };
     let prep =
         json!({"seed": p.seed, "prepare": p.prepare, "solver": p.solver, "output": p.output});
-    nodes.push(node(Stage::Prepare, case.into(), &prep, vec![], &nodes));
+    nodes.push(node(Stage::Prepare, case.into(), &prep, vec![], nodes));
+    let prepared = nodes.len() - 1;
     let mut discretised = Vec::new();
     if let Some(d) = &p.discretise {
         for method in d.method.to_vec() {
-            match method {
+            let planned: Vec<(String, serde_json::Value)> = match method {
                 Method::Bpm => {
                     let bpm = d.bpm.clone().expect("validated");
                     let ranges = bpm.particle_diameter.to_vec();
-                    for r in ranges.iter() {
-                        let case = if ranges.len() > 1 {
-                            format!("bpm-d{}-{}", mm(r[0]), mm(r[1]))
-                        } else {
-                            "bpm".into()
-                        };
-                        let params = json!({"seed": p.seed, "bpm": bpm, "particle_diameter": r});
-                        nodes.push(node(
-                            Stage::Discretise,
-                            case.clone(),
-                            &params,
-                            vec![0],
-                            &nodes,
-                        ));
-                        nodes.last_mut().expect("pushed").method = Some(Method::Bpm);
-                        discretised.push((nodes.len() - 1, case));
-                    }
+                    ranges
+                        .iter()
+                        .map(|r| {
+                            let case = if ranges.len() > 1 {
+                                format!("bpm-d{}-{}", mm(r[0]), mm(r[1]))
+                            } else {
+                                "bpm".into()
+                            };
+                            let params =
+                                json!({"seed": p.seed, "bpm": bpm, "particle_diameter": r});
+                            (case, params)
+                        })
+                        .collect()
                 }
-                Method::Mpm => {
-                    let params = json!({"seed": p.seed, "mpm": d.mpm});
-                    nodes.push(node(
-                        Stage::Discretise,
-                        "mpm".into(),
-                        &params,
-                        vec![0],
-                        &nodes,
-                    ));
-                    nodes.last_mut().expect("pushed").method = Some(Method::Mpm);
-                    discretised.push((nodes.len() - 1, "mpm".to_string()));
-                }
+                Method::Mpm => vec![("mpm".into(), json!({"seed": p.seed, "mpm": d.mpm}))],
+            };
+            for (case, params) in planned {
+                nodes.push(node(
+                    Stage::Discretise,
+                    case.clone(),
+                    &params,
+                    vec![prepared],
+                    nodes,
+                ));
+                nodes.last_mut().expect("pushed").method = Some(method);
+                discretised.push((nodes.len() - 1, case));
             }
         }
     }
@@ -152,19 +170,19 @@ pub fn plan(p: &Pipeline) -> Vec<Node> {
                 let case = format!("{dcase}-mu{mu}");
                 let params =
                     json!({"compact": c, "friction": mu, "solver": p.solver, "output": p.output});
-                nodes.push(node(Stage::Compact, case, &params, vec![*up], &nodes));
+                nodes.push(node(Stage::Compact, case, &params, vec![*up], nodes));
                 nodes.last_mut().expect("pushed").method = nodes[*up].method;
                 compacted.push(nodes.len() - 1);
             }
         }
     }
-    if let Some(a) = &p.analyse {
-        let ups = if compacted.is_empty() {
-            discretised.iter().map(|(u, _)| *u).collect()
-        } else {
-            compacted
-        };
-        nodes.push(node(Stage::Analyse, "all".into(), a, ups, &nodes));
+    for n in &mut nodes[first..] {
+        n.source = source;
+        n.case = format!("{prefix}{}", n.case);
     }
-    nodes
+    if compacted.is_empty() {
+        discretised.into_iter().map(|(u, _)| u).collect()
+    } else {
+        compacted
+    }
 }
