@@ -12,6 +12,30 @@ const GRAIN: &str = "name: g\nseed: 5\nprepare:\n  layout: single\n  radius: 1.5
 
 const DEPOSIT: &str = "name: g\nseed: 5\nprepare:\n  grains: 120\n  diameter: [1.4e-3, 2.4e-3]\noutput:\n  every: 100\n  snapshot_every: 100\n";
 
+const PACKING: &str = "name: g\nseed: 7\nprepare:\n  grains: 12\n  diameter: [1.4e-3, 2.4e-3]\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [2.0e-4, 3.4e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 1.0\n  final_strain: 0.3\n  initial_phi: 0.55\noutput:\n  every: 100\n  snapshot_every: 150\n";
+
+/// `n` kill times in [lo, hi) ms, increasing, drawn from the clock (printed, so a failure
+/// can be replayed by pasting them into the test).
+fn random_kills(n: usize, lo: u64, hi: u64) -> Vec<u64> {
+    let mut x = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64
+        | 1;
+    let mut v: Vec<u64> = (0..n)
+        .map(|_| {
+            // xorshift64
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            lo + x % (hi - lo)
+        })
+        .collect();
+    v.sort_unstable();
+    eprintln!("kill times (ms): {v:?}");
+    v
+}
+
 fn spawn(file: &Path, out: &Path) -> std::process::Child {
     Command::new(env!("CARGO_BIN_EXE_softgrain"))
         .args([
@@ -111,7 +135,17 @@ fn killed_runs_end_as_uninterrupted(yaml: &str, tag: &str, kills_ms: &[u64], com
 
 #[test]
 fn a_deposit_killed_several_times_ends_as_an_uninterrupted_one() {
-    killed_runs_end_as_uninterrupted(DEPOSIT, "kill-dep", &[150, 300, 450, 700], &[]);
+    killed_runs_end_as_uninterrupted(DEPOSIT, "kill-dep", &random_kills(4, 100, 800), &[]);
+}
+
+#[test]
+fn a_packing_compaction_killed_at_random_points_ends_as_an_uninterrupted_one() {
+    killed_runs_end_as_uninterrupted(
+        PACKING,
+        "kill-pack",
+        &random_kills(4, 200, 2500),
+        &["compact/bpm-mu0/timeseries.csv"],
+    );
 }
 
 #[test]
@@ -119,7 +153,7 @@ fn a_compaction_killed_several_times_ends_as_an_uninterrupted_one() {
     killed_runs_end_as_uninterrupted(
         GRAIN,
         "kill-bpm",
-        &[400, 900, 1400, 1900],
+        &random_kills(4, 300, 2000),
         &["compact/bpm-mu0/timeseries.csv"],
     );
 }
