@@ -110,7 +110,7 @@ fn main() -> ExitCode {
                 Ok(loaded) => {
                     for (node, word) in pipeline::status(&loaded, &out) {
                         println!(
-                            "{:<10} {:<18} {}  {word}",
+                            "{:<10} {:<36} {}  {word}",
                             node.stage.name(),
                             node.case,
                             node.short()

@@ -249,7 +249,7 @@ fn shared_checkpoint(out: &Path, own: &Path, node: &Node) -> Option<(StageState,
 fn report(opts: &RunOptions, node: &Node, what: &str) {
     if !opts.quiet {
         println!(
-            "{:<10} {:<18} {}  {what}",
+            "{:<10} {:<36} {}  {what}",
             node.stage.name(),
             node.case,
             node.short()
