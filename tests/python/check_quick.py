@@ -5,7 +5,10 @@ Usage: python3 tests/python/check_quick.py RUN_DIR   (RUN_DIR = <--out>/quick)
 
 The last frame of the deposit must hold the 30 grains with distinct ids, radii inside the
 pipeline's [0.7, 1.2] mm, centres above the floor, and (at rest) negligible velocities.
+Each compaction case must have its particles coloured by 30 grain ids, and a time series
+that starts at Φ0 and reaches the final strain.
 """
+import csv
 import json
 import sys
 from pathlib import Path
@@ -39,5 +42,21 @@ check("meshio sees the same radii", np.allclose(m.point_data["radius"], r))
 stage = json.loads((dep / "stage.json").read_text())
 f = stage["figures"]
 check("stage.json: floor force = weight within 0.5%", abs(f["floor_force"] / f["weight"] - 1) < 5e-3)
-print(f"{5 + 1 - len(failures)} passed, {len(failures)} failed")
+checks = 6
+for case in ("bpm-mu0", "bpm-mu0.5"):
+    comp = run / "compact" / case
+    reader = pv.get_reader(str(comp / "series.pvd"))
+    reader.set_active_time_point(len(reader.time_values) - 1)
+    frame = reader.read()[0]
+    gid = np.asarray(frame.point_data["grain_id"])
+    check(f"{case}: particles of 30 grains", len(set(gid.tolist())) == 30 and len(gid) > 30 * 15)
+    rows = list(csv.DictReader(open(comp / "timeseries.csv")))
+    check(f"{case}: contract columns", all(k in rows[0] for k in ("time", "strain", "phi", "z", "sigma")))
+    check(f"{case}: starts at Φ0 = 0.55", abs(float(rows[0]["phi"]) - 0.55) < 1e-9)
+    last = rows[-1]
+    check(f"{case}: reaches ε = 0.45 loaded", float(last["strain"]) >= 0.45 and float(last["sigma"]) > 0)
+    net = pv.read(str(sorted(comp.glob("contacts_*.vtu"))[-1]))
+    check(f"{case}: force network with normal_force", net.n_cells > 0 and float(np.max(net.cell_data["normal_force"])) > 0)
+    checks += 5
+print(f"{checks - len(failures)} passed, {len(failures)} failed")
 sys.exit(1 if failures else 0)
