@@ -68,10 +68,14 @@ fn force_scales_with_plane_strain_modulus_and_radius() {
     other_nu.material.poisson = 0.3;
     other_nu.material.young = base.material.young * (1.0 - 0.09) / (1.0 - 0.45 * 0.45);
     let f_nu = force_at(&run(other_nu), 0.02);
-    // Not exactly E*-only: refined runs with either basis converge to
-    // F(ν = 0.3)/F(ν = 0.45) = 0.977 at equal E* (0.978 here), a weak ν dependence that
-    // Johnson's formula does not carry.
-    assert!((f_nu / f0 - 1.0).abs() < 0.03, "nu: {}", f_nu / f0);
+    // Not exactly E*-only. Johnson's δ(F) carries ν only through E* (its ν/(2(1-ν)) terms
+    // from the disk's tension and the two Hertz zones cancel), but the exact linear
+    // plane-strain disk adds a term ∝ (1-2ν)/(1-ν) b/R that lowers F at lower ν: 0.990-0.994
+    // at ε = 0.02 (README, "ν at fixed E*"). Refined runs with either basis converge to
+    // 0.977 (0.978 here): the sign of the linear theory, and 1.5% more, which finite strain
+    // or residual locking at ν = 0.45 could each give; the bounds hold both readings.
+    let ratio = f_nu / f0;
+    assert!(ratio > 0.97 && ratio < 0.995, "nu: {ratio}");
     let mut big = base.clone();
     big.radius *= 2.0;
     let f_r = force_at(&run(big), 0.02);
