@@ -121,3 +121,51 @@ fn rigid_disks_at_rest_with_round_off_velocities_never_trip_it() {
         s.step().unwrap();
     }
 }
+
+/// The BPM attraction is explicit too, but its rigid, zero-restitution contacts keep it from
+/// pumping energy: at 2 t0 (four times the step the compact stage allows) a grain still
+/// loses kinetic energy, and at 5 t0 the contacts fail first, so the run stops at step 0
+/// on the penetration guard instead of going on with a bad state.
+#[test]
+fn a_bpm_grain_far_above_its_step_limit_stops_at_once() {
+    use softgrain::bpm::{BpmLaw, build_grain};
+    let mut rng = softgrain::rng::Rng::new(3);
+    let (pos, rad) = build_grain(1.5e-3, [1.6e-4, 2.6e-4], &mut rng);
+    let mut b = Bodies::default();
+    for (x, r) in pos.iter().zip(&rad) {
+        b.push(*x, *r, 990.0, 0);
+    }
+    let t0 = softgrain::stages::discretise::t0(&b, 100.0);
+    let scene = |k: f64| {
+        let law = BpmLaw::Cohesive {
+            f0: 100.0,
+            gamma: 7.0,
+            cutoff: 1.0,
+        };
+        let params = CdParams {
+            dt: k * t0,
+            theta: 1.0,
+            gravity: V2::zeros(),
+            alert: 0.05 * 1.6e-4,
+            skin: 0.2 * 1.6e-4,
+            nlgs: NlgsParams {
+                tol: 1.666e-4,
+                check_every: 10,
+                max_iter: 5000,
+            },
+        };
+        let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, vec![]);
+        Scene::new(b.clone(), vec![], laws, params, 1)
+    };
+    let mut s = scene(2.0);
+    s.step().unwrap();
+    let first = s.bodies.kinetic_energy();
+    for _ in 0..300 {
+        s.step().unwrap();
+    }
+    assert!(s.bodies.kinetic_energy() < first);
+    match scene(5.0).step() {
+        Err(CdError::Penetration { step: 0, .. }) => {}
+        other => panic!("expected a penetration at step 0, got {other:?}"),
+    }
+}

@@ -44,6 +44,22 @@ fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     lo / 1.5..hi * 1.5
 }
 
+/// A tick label with at most 3 significant digits (plotters prints log ticks in full, e.g.
+/// 0.30000000000000004); powers of ten outside [1e-3, 1e4) as 1e-5.
+fn tick(v: &f64) -> String {
+    let v = *v;
+    if v == 0.0 || !(1e-3..1e4).contains(&v.abs()) {
+        return format!("{v:.0e}");
+    }
+    let decimals = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let t = format!("{v:.decimals$}");
+    if t.contains('.') {
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        t
+    }
+}
+
 /// `work_precision_<family>.png`: wall time per run against error.
 pub fn work_precision(path: &Path, family: &str, rows: &[&Row]) -> Result<(), String> {
     draw_work_precision(path, family, rows).map_err(|e| format!("{}: {e}", path.display()))
@@ -80,6 +96,8 @@ fn draw_work_precision(path: &Path, family: &str, rows: &[&Row]) -> Fallible {
         .x_desc("wall time per run (s)")
         .y_desc(format!("error ({})", kinds.join(", ")))
         .label_style((FONT, 14))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .draw()?;
     let mut knobs: Vec<&str> = rows.iter().map(|r| r.knob).collect();
     knobs.dedup();
@@ -152,6 +170,8 @@ fn draw_stability(path: &Path, runs: &[StabilityRun]) -> Fallible {
         .x_desc("resolution Δr/R")
         .y_desc("largest accurate Δt (s)")
         .label_style((FONT, 14))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
         .draw()?;
     let mut materials: Vec<(f64, f64)> = runs.iter().map(|r| (r.young, r.poisson)).collect();
     materials.dedup();
