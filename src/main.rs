@@ -31,6 +31,18 @@ enum Command {
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
     },
+    /// Work-precision sweep of the engines (pipelines/bench.yaml): CSV and plots.
+    Bench {
+        file: PathBuf,
+        #[arg(long, default_value = "runs")]
+        out: PathBuf,
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Run only the setting of this index and print its outcome as JSON (the child
+        /// process that measures one setting's memory).
+        #[arg(long, hide = true)]
+        one: Option<usize>,
+    },
 }
 
 #[derive(Subcommand)]
@@ -105,6 +117,12 @@ fn main() -> ExitCode {
             }
             Err(e) => input_error(&e),
         },
+        Command::Bench {
+            file,
+            out,
+            set,
+            one,
+        } => bench(&file, &out, &set, one),
         Command::Pipeline { action } => match action {
             PipelineAction::Status { file, out, set } => match config::load(&file, &set) {
                 Ok(loaded) => {
@@ -163,6 +181,36 @@ fn main() -> ExitCode {
                 }
             }
         },
+    }
+}
+
+fn bench(
+    file: &std::path::Path,
+    out: &std::path::Path,
+    set: &[String],
+    one: Option<usize>,
+) -> ExitCode {
+    let spec = match softgrain::bench::load(file, set) {
+        Ok(s) => s,
+        Err(e) => return input_error(&e),
+    };
+    let result = match one {
+        Some(index) => softgrain::bench::run_one(&spec, index).and_then(|o| {
+            serde_json::to_string(&o)
+                .map(|line| println!("{line}"))
+                .map_err(|e| e.to_string())
+        }),
+        None => std::env::current_exe()
+            .map_err(|e| format!("cannot find this program to run the settings: {e}"))
+            .and_then(|exe| softgrain::bench::run(&spec, file, set, out, &exe))
+            .map(|dir| println!("wrote {}", dir.display())),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: bench: {e}");
+            ExitCode::from(1)
+        }
     }
 }
 

@@ -48,4 +48,15 @@ impl InteractionLaw for BpmLaw {
             _ => 0.0,
         }
     }
+
+    /// `U(g) = -F0 a0/(γ-1) [(1 + g/a0)^(1-γ) - (1 + cutoff)^(1-γ)]`, constant below contact.
+    fn potential(&self, gap: f64, a0: f64) -> f64 {
+        match *self {
+            BpmLaw::Cohesive { f0, gamma, cutoff } if gap <= cutoff * a0 => {
+                let x = |g: f64| (1.0 + g / a0).powf(1.0 - gamma);
+                -f0 * a0 / (gamma - 1.0) * (x(gap.max(0.0)) - x(cutoff * a0))
+            }
+            _ => 0.0,
+        }
+    }
 }

@@ -20,6 +20,13 @@ pub trait InteractionLaw: Send + Sync {
         0.0
     }
 
+    /// Potential of `smooth_force`, `U(gap) = ∫_gap^range f ds` (J/m), zero beyond the
+    /// range (≤ 0 for an attraction). The energy guard (`guard.rs`) counts `-U` as energy
+    /// the law may have released.
+    fn potential(&self, _gap: f64, _a0: f64) -> f64 {
+        0.0
+    }
+
     /// Local solve of velocity-Signorini + Coulomb (restitution 0). `u_n` is the
     /// gap-augmented normal velocity and `u_t` the sliding velocity the contact would have
     /// without its own impulse; `w_nn`, `w_tt` the diagonal Delassus terms (W_tn = 0 for disks).

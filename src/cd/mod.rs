@@ -16,6 +16,7 @@
 mod bodies;
 mod contact;
 mod detect;
+mod guard;
 mod law;
 mod nlgs;
 mod scene;

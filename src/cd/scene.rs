@@ -1,4 +1,5 @@
 use super::detect::Neighbours;
+use super::guard::EnergyGuard;
 use super::nlgs::{self, NlgsParams, NlgsReport};
 use super::{Bodies, Contact, InteractionLaw, LawTable, Partner};
 use crate::geom::{V2, Wall};
@@ -32,6 +33,14 @@ pub struct CdParams {
 pub enum CdError {
     #[error("step {step}: velocity of disk {body} is not finite")]
     NonFinite { step: u64, body: usize },
+    #[error(
+        "step {step}: kinetic energy {kinetic:.3e} J/m exceeds 1000 times the energy the loads, walls and cohesion can have supplied ({budget:.3e} J/m): the run is unstable (time step too large for an explicit force?)"
+    )]
+    EnergyGrowth {
+        step: u64,
+        kinetic: f64,
+        budget: f64,
+    },
     #[error(
         "step {step}: disks {i} and {j} overlap by {overlap:.3e} m, more than half the smaller radius: the contacts have failed (a bad initial packing, or a step far too large)"
     )]
@@ -72,6 +81,8 @@ pub struct Scene<L> {
     neighbours: Neighbours,
     #[serde(skip)]
     order: Vec<u32>,
+    #[serde(skip)]
+    pub(super) energy: EnergyGuard,
 }
 
 impl<L: InteractionLaw> Scene<L> {
@@ -95,6 +106,7 @@ impl<L: InteractionLaw> Scene<L> {
             rng: Rng::stream(seed, "cd-nlgs-order"),
             neighbours: Neighbours::default(),
             order: Vec::new(),
+            energy: EnergyGuard::default(),
         }
     }
 
@@ -102,6 +114,7 @@ impl<L: InteractionLaw> Scene<L> {
     pub fn step(&mut self) -> Result<StepReport, CdError> {
         let h = self.params.dt;
         let theta = self.params.theta;
+        self.energy.start(&self.bodies);
         let pred = (1.0 - theta) * h;
         // 3. Geometry at q_TT = q⁻ + (1-θ) h V⁻, frozen for the step.
         // (θ = 1, the default: q_TT = q⁻, so the positions are used as they are, not copied)
@@ -222,10 +235,11 @@ impl<L: InteractionLaw> Scene<L> {
                 }
             }
         }
+        self.contacts = contacts;
+        self.check_energy()?;
         self.time += h;
         self.steps += 1;
         let n_solved = self.order.len();
-        self.contacts = contacts;
         Ok(StepReport {
             nlgs: report,
             contacts: n_solved,

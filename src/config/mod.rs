@@ -3,7 +3,7 @@
 //! line and column.
 
 pub mod defaults;
-mod locate;
+pub(crate) mod locate;
 mod schema;
 mod validate;
 
@@ -170,7 +170,7 @@ fn set_err(file: &Path, key: &str, value: &str, message: String) -> InputError {
 
 /// The parser's message without its own "error: line L column C: " prefix (the position
 /// is printed once, as file:line:column).
-fn first_line(s: &str) -> String {
+pub(crate) fn first_line(s: &str) -> String {
     let line = s.lines().next().unwrap_or("");
     let stripped = line.strip_prefix("error: ").unwrap_or(line);
     match stripped
@@ -183,8 +183,12 @@ fn first_line(s: &str) -> String {
 }
 
 /// Overrides one value by its dotted path, exactly as editing the file would: the result is
-/// re-read through the same typed schema.
-fn apply_set(p: &Pipeline, key: &str, value: &str) -> Result<Pipeline, String> {
+/// re-read through the same typed schema (pipeline files and bench files alike).
+pub(crate) fn apply_set<T: serde::Serialize + serde::de::DeserializeOwned>(
+    p: &T,
+    key: &str,
+    value: &str,
+) -> Result<T, String> {
     let mut tree = serde_json::to_value(p).map_err(|e| e.to_string())?;
     let new: serde_json::Value = serde_saphyr::from_str(value)
         .map_err(|e| format!("not a YAML value: {}", first_line(&e.to_string())))?;

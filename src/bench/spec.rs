@@ -1,0 +1,337 @@
+//! The bench file (`pipelines/bench.yaml`): which families to sweep, the base setting of
+//! each and the values of each knob. Unknown keys are rejected; errors name the file, the
+//! key, the value and, for YAML, the line and column.
+
+use crate::config::{InputError, apply_set, first_line, locate};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BenchSpec {
+    /// Output folder name under `--out`.
+    pub name: String,
+    /// Runs of each setting; the median wall time is reported.
+    #[serde(default = "repeats")]
+    pub repeats: usize,
+    #[serde(default)]
+    pub mpm: Option<MpmFamily>,
+    #[serde(default)]
+    pub cd: Option<CdFamily>,
+    #[serde(default)]
+    pub mpm_stability: Option<MpmStability>,
+}
+
+fn repeats() -> usize {
+    3
+}
+
+/// Shape functions of the MPM grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Shape {
+    Bilinear,
+    Bspline,
+    Gimp,
+}
+
+/// The single MPM grain between two plates (METHODS §5), to `final_strain`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MpmFamily {
+    #[serde(default = "radius")]
+    pub radius: f64,
+    #[serde(default = "young")]
+    pub young: f64,
+    #[serde(default = "poisson")]
+    pub poisson: f64,
+    #[serde(default = "density")]
+    pub density: f64,
+    #[serde(default = "wall_velocity")]
+    pub wall_velocity: f64,
+    /// Must pass 0.05: the force is compared with Johnson's at ε = 0.02 and 0.05.
+    pub final_strain: f64,
+    pub base: MpmSetting,
+    #[serde(default)]
+    pub resolution: Vec<f64>,
+    #[serde(default)]
+    pub travel_per_step: Vec<f64>,
+    #[serde(default)]
+    pub newton_tolerance: Vec<f64>,
+    #[serde(default)]
+    pub shape: Vec<Shape>,
+}
+
+/// One MPM setting: Δr/R, plate travel per step over h_g (sets Δt), Newton's residual
+/// tolerance (the increment tolerance is ten times it, as in the defaults), shape functions.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MpmSetting {
+    pub resolution: f64,
+    pub travel_per_step: f64,
+    pub newton_tolerance: f64,
+    pub shape: Shape,
+}
+
+/// A small rigid-disk deposit (weight on the floor, overlaps) and the incline checks.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CdFamily {
+    pub grains: usize,
+    #[serde(default = "diameter")]
+    pub diameter: [f64; 2],
+    #[serde(default = "friction")]
+    pub friction: f64,
+    /// A deposit still moving after this long is measured as it is (s).
+    #[serde(default = "max_time")]
+    pub max_time: f64,
+    pub base: CdSetting,
+    #[serde(default)]
+    pub tolerance: Vec<f64>,
+    #[serde(default)]
+    pub time_step: Vec<f64>,
+    #[serde(default)]
+    pub alert: Vec<f64>,
+}
+
+/// One CD setting: NLGS tolerance, time step in units of sqrt(<d>/g), alert distance in
+/// units of the smallest diameter.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CdSetting {
+    pub tolerance: f64,
+    pub time_step: f64,
+    pub alert: f64,
+}
+
+/// The MPM stability map: for each resolution and material, every plate travel per step is
+/// run; the largest whose run completes with a force curve within `accuracy` (relative RMS)
+/// of the smallest step's is marked.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MpmStability {
+    #[serde(default = "radius")]
+    pub radius: f64,
+    #[serde(default = "density")]
+    pub density: f64,
+    #[serde(default = "wall_velocity")]
+    pub wall_velocity: f64,
+    pub final_strain: f64,
+    pub accuracy: f64,
+    pub resolution: Vec<f64>,
+    pub young: Vec<f64>,
+    pub poisson: Vec<f64>,
+    pub travel_per_step: Vec<f64>,
+}
+
+fn radius() -> f64 {
+    5e-3
+}
+fn young() -> f64 {
+    10e6
+}
+fn poisson() -> f64 {
+    0.45
+}
+fn density() -> f64 {
+    990.0
+}
+fn wall_velocity() -> f64 {
+    0.2
+}
+fn diameter() -> [f64; 2] {
+    [1.4e-3, 2.4e-3]
+}
+fn friction() -> f64 {
+    0.3
+}
+fn max_time() -> f64 {
+    5.0
+}
+
+/// (key, value, what is allowed)
+type Failure = (String, String, String);
+
+/// Reads, overrides (`--set KEY=VALUE`) and validates a bench file.
+pub fn load(file: &Path, sets: &[String]) -> Result<BenchSpec, Box<InputError>> {
+    let err = |key: &str, value: &str, message: String, at, from_set| {
+        Box::new(InputError {
+            file: file.to_path_buf(),
+            key: key.to_string(),
+            value: value.to_string(),
+            message,
+            at,
+            from_set,
+        })
+    };
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| err("", "", format!("cannot read the file: {e}"), None, false))?;
+    let mut spec: BenchSpec = serde_saphyr::from_str(&text).map_err(|e| {
+        let at = e.location().map(|l| (l.line(), l.column()));
+        let (key, value) = at
+            .and_then(|(line, _)| locate::key_at(&text, line))
+            .unwrap_or_default();
+        err(&key, &value, first_line(&e.to_string()), at, false)
+    })?;
+    let mut set_keys = Vec::new();
+    for s in sets {
+        let (key, value) = s
+            .split_once('=')
+            .ok_or_else(|| err(s, "", "expected KEY=VALUE".into(), None, true))?;
+        spec = apply_set(&spec, key.trim(), value.trim())
+            .map_err(|m| err(key, value, m, None, true))?;
+        set_keys.push(key.trim().to_string());
+    }
+    check(&spec).map_err(|(key, value, message)| {
+        let from_set = set_keys.contains(&key);
+        let at = (!from_set)
+            .then(|| locate::key_position(&text, &key))
+            .flatten();
+        err(&key, &value, message, at, from_set)
+    })?;
+    Ok(spec)
+}
+
+fn check(s: &BenchSpec) -> Result<(), Failure> {
+    let fail = |key: &str, value: String, msg: &str| Err((key.to_string(), value, msg.to_string()));
+    if s.name.is_empty() || s.name.contains(['/', '\\']) {
+        return fail("name", s.name.clone(), "must be a non-empty folder name");
+    }
+    if s.repeats == 0 {
+        return fail("repeats", "0".into(), "must be >= 1");
+    }
+    if s.mpm.is_none() && s.cd.is_none() && s.mpm_stability.is_none() {
+        return fail(
+            "mpm",
+            "".into(),
+            "give at least one family: mpm, cd, mpm_stability",
+        );
+    }
+    if let Some(m) = &s.mpm {
+        positive("mpm.radius", m.radius)?;
+        positive("mpm.young", m.young)?;
+        poisson_ok("mpm.poisson", m.poisson)?;
+        positive("mpm.density", m.density)?;
+        positive("mpm.wall_velocity", m.wall_velocity)?;
+        if !(m.final_strain > 0.05 && m.final_strain < 0.5) {
+            return fail(
+                "mpm.final_strain",
+                m.final_strain.to_string(),
+                "must lie in (0.05, 0.5): the force is compared at ε = 0.02 and 0.05",
+            );
+        }
+        resolution("mpm.base.resolution", m.base.resolution)?;
+        travel("mpm.base.travel_per_step", m.base.travel_per_step)?;
+        positive("mpm.base.newton_tolerance", m.base.newton_tolerance)?;
+        m.resolution
+            .iter()
+            .try_for_each(|&x| resolution("mpm.resolution", x))?;
+        m.travel_per_step
+            .iter()
+            .try_for_each(|&x| travel("mpm.travel_per_step", x))?;
+        m.newton_tolerance
+            .iter()
+            .try_for_each(|&x| positive("mpm.newton_tolerance", x))?;
+    }
+    if let Some(c) = &s.cd {
+        if c.grains < 2 {
+            return fail("cd.grains", c.grains.to_string(), "must be >= 2");
+        }
+        if !(c.diameter[0] > 0.0 && c.diameter[1] >= c.diameter[0]) {
+            return fail(
+                "cd.diameter",
+                format!("{:?}", c.diameter),
+                "must be [min, max] with 0 < min <= max",
+            );
+        }
+        if c.friction.is_nan() || c.friction < 0.0 {
+            return fail("cd.friction", c.friction.to_string(), "must be >= 0");
+        }
+        positive("cd.max_time", c.max_time)?;
+        let b = c.base;
+        positive("cd.base.tolerance", b.tolerance)?;
+        positive("cd.base.time_step", b.time_step)?;
+        positive("cd.base.alert", b.alert)?;
+        c.tolerance
+            .iter()
+            .try_for_each(|&x| positive("cd.tolerance", x))?;
+        c.time_step
+            .iter()
+            .try_for_each(|&x| positive("cd.time_step", x))?;
+        c.alert.iter().try_for_each(|&x| positive("cd.alert", x))?;
+    }
+    if let Some(m) = &s.mpm_stability {
+        positive("mpm_stability.radius", m.radius)?;
+        positive("mpm_stability.density", m.density)?;
+        positive("mpm_stability.wall_velocity", m.wall_velocity)?;
+        positive("mpm_stability.accuracy", m.accuracy)?;
+        if !(m.final_strain > 0.0 && m.final_strain < 0.5) {
+            return fail(
+                "mpm_stability.final_strain",
+                m.final_strain.to_string(),
+                "must lie in (0, 0.5)",
+            );
+        }
+        for (key, list) in [
+            ("mpm_stability.resolution", &m.resolution),
+            ("mpm_stability.young", &m.young),
+            ("mpm_stability.poisson", &m.poisson),
+            ("mpm_stability.travel_per_step", &m.travel_per_step),
+        ] {
+            if list.is_empty() {
+                return fail(key, "[]".into(), "must list at least one value");
+            }
+        }
+        m.resolution
+            .iter()
+            .try_for_each(|&x| resolution("mpm_stability.resolution", x))?;
+        m.young
+            .iter()
+            .try_for_each(|&x| positive("mpm_stability.young", x))?;
+        m.poisson
+            .iter()
+            .try_for_each(|&x| poisson_ok("mpm_stability.poisson", x))?;
+        m.travel_per_step
+            .iter()
+            .try_for_each(|&x| travel("mpm_stability.travel_per_step", x))?;
+    }
+    Ok(())
+}
+
+fn positive(key: &str, x: f64) -> Result<(), Failure> {
+    if x > 0.0 && x.is_finite() {
+        Ok(())
+    } else {
+        Err((
+            key.into(),
+            x.to_string(),
+            "must be a finite number > 0".into(),
+        ))
+    }
+}
+
+fn poisson_ok(key: &str, x: f64) -> Result<(), Failure> {
+    if x > -1.0 && x < 0.5 {
+        Ok(())
+    } else {
+        Err((key.into(), x.to_string(), "must lie in (-1, 0.5)".into()))
+    }
+}
+
+/// The MPM driver's own range for Δr/R.
+fn resolution(key: &str, x: f64) -> Result<(), Failure> {
+    if x > 0.0 && x <= 0.25 {
+        Ok(())
+    } else {
+        Err((key.into(), x.to_string(), "must lie in (0, 0.25]".into()))
+    }
+}
+
+/// The MPM driver's own range for the plate travel per step (units of h_g).
+fn travel(key: &str, x: f64) -> Result<(), Failure> {
+    if x > 0.0 && x <= 0.5 {
+        Ok(())
+    } else {
+        Err((key.into(), x.to_string(), "must lie in (0, 0.5]".into()))
+    }
+}
