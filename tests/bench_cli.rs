@@ -1,6 +1,6 @@
-//! `softgrain bench` on a tiny sweep (two values per knob, one repeat): the CSV has the
-//! contract's columns and one row per setting, every family has its plot, the stability
-//! map is written; a wrong bench file exits 2 naming the file, the key and the value.
+//! `softgrain bench` on a tiny sweep (two values per knob, one repeat, all families): the CSV
+//! has the contract's columns and one row per setting, every family has its plot, the
+//! stability map is written; a wrong bench file exits 2 naming the file, the key and the value.
 
 mod common;
 
@@ -19,6 +19,11 @@ cd:
   tolerance: [1.0e-2, 1.0e-3]
   time_step: [0.08, 0.04]
   alert: [0.05, 0.2]
+bpm:
+  final_strain: 0.12
+  base: {tolerance: 1.0e-3, time_step: 0.2}
+  tolerance: [1.0e-2, 1.0e-3]
+  time_step: [0.4, 0.2]
 mpm_stability:
   final_strain: 0.025
   accuracy: 0.02
@@ -61,7 +66,7 @@ fn a_tiny_sweep_writes_the_csv_and_one_plot_per_family() {
         assert!(header.contains(&col), "no column {col} in {header:?}");
     }
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 14, "{csv}");
+    assert_eq!(rows.len(), 18, "{csv}");
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     for r in &rows {
         assert_eq!(r.len(), header.len(), "{r:?}");

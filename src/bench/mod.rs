@@ -1,6 +1,6 @@
 //! `softgrain bench FILE.yaml`: the work-precision sweep of the engines (issue #7).
 //!
-//! For each family (`mpm`, `cd`) and each value of each knob, the base setting with that one
+//! For each family (`mpm`, `cd`, `bpm`) and each value of each knob, the base setting with that one
 //! value changed is run `repeats` times by the engines' library calls (no checkpoints), in a
 //! child process `softgrain bench FILE --one INDEX` so that the peak resident memory
 //! (`VmHWM`, a process high-water mark) belongs to that setting alone. The child prints one
@@ -10,6 +10,7 @@
 //! `mpm_stability` section also `mpm_stability.csv` and `mpm_stability.png` (run in the
 //! parent: the map reports steps, not memory).
 
+pub mod bpm;
 pub mod cd;
 pub mod mpm;
 mod plot;
@@ -19,7 +20,7 @@ mod table;
 pub use spec::{BenchSpec, load};
 
 use serde::{Deserialize, Serialize};
-use spec::{CdSetting, MpmSetting, Shape};
+use spec::{BpmSetting, CdSetting, MpmSetting, Shape};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -39,6 +40,7 @@ pub struct Setting {
 enum Engine {
     Mpm(MpmSetting),
     Cd(CdSetting),
+    Bpm(BpmSetting),
 }
 
 /// Every setting of the sweep, in a fixed order (a child finds its own by index).
@@ -104,6 +106,26 @@ pub fn settings(spec: &BenchSpec) -> Vec<Setting> {
         out.extend(num("time_step", &c.time_step, |s, x| s.time_step = x));
         out.extend(num("alert", &c.alert, |s, x| s.alert = x));
     }
+    if let Some(b) = &spec.bpm {
+        let num = |knob: &'static str, values: &[f64], set: fn(&mut BpmSetting, f64)| {
+            values
+                .iter()
+                .map(move |&x| {
+                    let mut s = b.base;
+                    set(&mut s, x);
+                    Setting {
+                        family: "bpm",
+                        knob,
+                        value: x.to_string(),
+                        number: Some(x),
+                        engine: Engine::Bpm(s),
+                    }
+                })
+                .collect::<Vec<_>>()
+        };
+        out.extend(num("tolerance", &b.tolerance, |s, x| s.tolerance = x));
+        out.extend(num("time_step", &b.time_step, |s, x| s.time_step = x));
+    }
     out
 }
 
@@ -121,6 +143,8 @@ pub struct Outcome {
     pub floor_balance: Option<f64>,
     pub max_overlap: Option<f64>,
     pub incline: Option<f64>,
+    /// BPM: the plateau σ<a0>/F0.
+    pub plateau: Option<f64>,
     /// Why the run stopped, if it failed.
     pub failure: Option<String>,
 }
@@ -141,6 +165,13 @@ pub fn run_one(spec: &BenchSpec, index: usize) -> Result<Outcome, String> {
                     out.johnson = Some(r.johnson);
                     out.curve = r.curve;
                 })
+            }
+            Engine::Bpm(b) => {
+                let scratch = std::env::temp_dir()
+                    .join(format!("softgrain-bench-bpm-{}", std::process::id()));
+                let r = bpm::measure(spec.bpm.as_ref().expect("a bpm setting"), b, &scratch);
+                let _ = std::fs::remove_dir_all(&scratch);
+                r.map(|plateau| out.plateau = Some(plateau))
             }
             Engine::Cd(c) => cd::measure(spec.cd.as_ref().expect("a cd setting"), c).map(|r| {
                 out.floor_balance = Some(r.floor_balance);

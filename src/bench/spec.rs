@@ -19,6 +19,8 @@ pub struct BenchSpec {
     #[serde(default)]
     pub cd: Option<CdFamily>,
     #[serde(default)]
+    pub bpm: Option<BpmFamily>,
+    #[serde(default)]
     pub mpm_stability: Option<MpmStability>,
 }
 
@@ -104,6 +106,32 @@ pub struct CdSetting {
     pub alert: f64,
 }
 
+/// One small BPM grain between two plates; its plateau needs `final_strain` above 0.1.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BpmFamily {
+    #[serde(default = "bpm_radius")]
+    pub radius: f64,
+    #[serde(default = "particle_diameter")]
+    pub particle_diameter: [f64; 2],
+    #[serde(default = "wall_velocity")]
+    pub wall_velocity: f64,
+    pub final_strain: f64,
+    pub base: BpmSetting,
+    #[serde(default)]
+    pub tolerance: Vec<f64>,
+    #[serde(default)]
+    pub time_step: Vec<f64>,
+}
+
+/// One BPM setting: NLGS tolerance, time step in units of t0 = sqrt(m a0/F0) (smallest particle).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BpmSetting {
+    pub tolerance: f64,
+    pub time_step: f64,
+}
+
 /// The MPM stability map: for each resolution and material, every plate travel per step is
 /// run; the largest whose run completes with a force curve within `accuracy` (relative RMS)
 /// of the smallest step's is marked.
@@ -138,6 +166,12 @@ fn density() -> f64 {
 }
 fn wall_velocity() -> f64 {
     0.2
+}
+fn bpm_radius() -> f64 {
+    1.5e-3
+}
+fn particle_diameter() -> [f64; 2] {
+    [1.6e-4, 2.6e-4]
 }
 fn diameter() -> [f64; 2] {
     [1.4e-3, 2.4e-3]
@@ -200,12 +234,41 @@ fn check(s: &BenchSpec) -> Result<(), Failure> {
     if s.repeats == 0 {
         return fail("repeats", "0".into(), "must be >= 1");
     }
-    if s.mpm.is_none() && s.cd.is_none() && s.mpm_stability.is_none() {
+    if s.mpm.is_none() && s.cd.is_none() && s.bpm.is_none() && s.mpm_stability.is_none() {
         return fail(
             "mpm",
             "".into(),
-            "give at least one family: mpm, cd, mpm_stability",
+            "give at least one family: mpm, cd, bpm, mpm_stability",
         );
+    }
+    if let Some(b) = &s.bpm {
+        positive("bpm.wall_velocity", b.wall_velocity)?;
+        let [d0, d1] = b.particle_diameter;
+        if !(d0 > 0.0 && d1 >= d0) {
+            return fail(
+                "bpm.particle_diameter",
+                format!("{:?}", b.particle_diameter),
+                "must be [min, max] with 0 < min <= max",
+            );
+        }
+        if b.radius.is_nan() || b.radius < 2.0 * d1 {
+            return fail("bpm.radius", b.radius.to_string(), "must be >= 2 d_max");
+        }
+        if !(b.final_strain > 0.1 && b.final_strain < 0.6) {
+            return fail(
+                "bpm.final_strain",
+                b.final_strain.to_string(),
+                "must lie in (0.1, 0.6): the plateau is the mean over ε >= 0.1",
+            );
+        }
+        positive("bpm.base.tolerance", b.base.tolerance)?;
+        bpm_step("bpm.base.time_step", b.base.time_step)?;
+        b.tolerance
+            .iter()
+            .try_for_each(|&x| positive("bpm.tolerance", x))?;
+        b.time_step
+            .iter()
+            .try_for_each(|&x| bpm_step("bpm.time_step", x))?;
     }
     if let Some(m) = &s.mpm {
         positive("mpm.radius", m.radius)?;
@@ -315,6 +378,19 @@ fn poisson_ok(key: &str, x: f64) -> Result<(), Failure> {
         Ok(())
     } else {
         Err((key.into(), x.to_string(), "must lie in (-1, 0.5)".into()))
+    }
+}
+
+/// The compact stage's range for the BPM step (units of t0: the explicit attraction).
+fn bpm_step(key: &str, x: f64) -> Result<(), Failure> {
+    if x > 0.0 && x <= 0.5 {
+        Ok(())
+    } else {
+        Err((
+            key.into(),
+            x.to_string(),
+            "must lie in (0, 0.5] (units of t0)".into(),
+        ))
     }
 }
 

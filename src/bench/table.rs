@@ -22,7 +22,8 @@ pub struct Row {
 /// Builds the rows. MPM resolution and shape are judged against Johnson's solution (the
 /// larger of |F/F_J - 1| at ε = 0.02 and 0.05); MPM time step and Newton tolerance against
 /// the finest value of the knob (force-curve RMS); CD settings by the worst of the floor
-/// balance, the max overlap over <r> and the incline acceleration error.
+/// balance, the max overlap over <r> and the incline acceleration error; BPM settings by
+/// the plateau against the knob's finest value.
 pub fn rows(settings: &[Setting], outcomes: Vec<Outcome>) -> Vec<Row> {
     let finest = |knob: &str| {
         (settings.iter().zip(&outcomes))
@@ -30,6 +31,13 @@ pub fn rows(settings: &[Setting], outcomes: Vec<Outcome>) -> Vec<Row> {
             .filter_map(|(s, o)| Some((s.number?, o)))
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .map(|(x, o)| (x, o.curve.clone()))
+    };
+    // BPM: the plateau of the knob's finest (smallest) value
+    let plateau_ref = |knob: &str| {
+        (settings.iter().zip(&outcomes))
+            .filter(|(s, _)| s.knob == knob && s.family == "bpm")
+            .filter_map(|(s, o)| Some((s.number?, o.plateau?)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
     };
     let mut rows: Vec<Row> = (settings.iter().zip(outcomes.iter()))
         .map(|(s, o)| {
@@ -46,6 +54,11 @@ pub fn rows(settings: &[Setting], outcomes: Vec<Outcome>) -> Vec<Row> {
                 }
                 ("mpm", _) if rms.is_none() && o.failure.is_none() => (None, "reference"),
                 ("mpm", _) => (rms, "rms_vs_finest"),
+                ("bpm", knob) => match (plateau_ref(knob), o.plateau) {
+                    (Some((x, _)), Some(_)) if s.number == Some(x) => (None, "reference"),
+                    (Some((_, r)), Some(p)) => (Some((p / r - 1.0).abs()), "plateau_vs_finest"),
+                    _ => (None, "plateau_vs_finest"),
+                },
                 _ => (
                     match (o.floor_balance, o.max_overlap, o.incline) {
                         (Some(a), Some(b), Some(c)) => Some(a.max(b).max(c)),
@@ -92,7 +105,7 @@ fn mark_pareto(rows: &mut [Row]) {
     }
 }
 
-pub const HEADER: &str = "family,knob,value,wall_s,error,error_kind,peak_rss_mb,pareto,johnson_0.02,johnson_0.05,rms_vs_finest,floor_balance,max_overlap,incline,failure";
+pub const HEADER: &str = "family,knob,value,wall_s,error,error_kind,peak_rss_mb,pareto,johnson_0.02,johnson_0.05,rms_vs_finest,floor_balance,max_overlap,incline,plateau,failure";
 
 pub fn csv(rows: &[Row]) -> String {
     let opt = |x: Option<f64>| x.map(|v| format!("{v:.6e}")).unwrap_or_default();
@@ -105,7 +118,7 @@ pub fn csv(rows: &[Row]) -> String {
             .unwrap_or("")
             .replace([',', '\n', '"'], " ");
         out += &format!(
-            "{},{},{},{:.6},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{:.6},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.family,
             r.knob,
             r.value,
@@ -120,6 +133,7 @@ pub fn csv(rows: &[Row]) -> String {
             opt(o.floor_balance),
             opt(o.max_overlap),
             opt(o.incline),
+            opt(o.plateau),
             failure
         );
     }

@@ -75,6 +75,16 @@ pub struct StageCtx {
 }
 
 impl StageCtx {
+    /// A context for stage functions called outside a pipeline (the bench): outputs in
+    /// `dir`, no snapshot unless the pipeline asks for them, no progress bars.
+    pub fn scratch(dir: PathBuf) -> Self {
+        StageCtx {
+            snapshot: dir.join("scratch.snap"),
+            dir,
+            quiet: true,
+        }
+    }
+
     /// The last snapshot of this node, if one exists and verifies; a bad one is ignored
     /// (reported) and the stage starts from zero.
     pub fn load_snapshot<T: DeserializeOwned>(&self) -> Option<T> {
