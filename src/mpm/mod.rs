@@ -58,6 +58,8 @@ pub mod error;
 pub mod grid;
 pub mod material;
 pub mod newmark;
+pub mod node_contact;
+pub mod packing;
 pub mod points;
 pub mod shape;
 pub mod solve;
