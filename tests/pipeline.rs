@@ -225,7 +225,7 @@ fn a_stage_not_built_yet_is_refused_before_any_work() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("MPM discretise stage of packings is not built"),
+        stderr(&o).contains("BPM compaction of packings is not built"),
         "{}",
         stderr(&o)
     );

@@ -3,7 +3,10 @@
 //! here: detection, the local law and the nonlinear Gauss–Seidel (NLGS).
 //!
 //! * **Candidates.** A node of the common grid where two grains both have (non-light) mass
-//!   gives one contact per pair of grains present (three grains: three contacts, §4.5).
+//!   gives one contact per pair of grains present (three grains: three contacts, §4.5),
+//!   provided the two grains' mass gradients there are within 60° of opposite (`FACING`):
+//!   beside a contact both point along the common tangent, and the pair's normal would lie
+//!   in the surfaces (gaps of -4 h_g were measured there, and such a node locks sliding).
 //!   Wall candidates are those of the single grain (`super::contact::detect`): nodes behind
 //!   the wall or less than half a cell in front of it. Candidates whose gap exceeds the alert
 //!   distance are dropped for this step.
@@ -141,6 +144,10 @@ impl Slots {
     }
 }
 
+/// Smallest cosine between one grain's spatial mass gradient and minus the other's for a
+/// node to be a contact candidate (60°).
+pub const FACING: f64 = 0.5;
+
 /// Common-grid id of node `id` of `window` (a window of `grid`).
 pub fn global_node(grid: &Grid, window: &Grid, id: usize) -> usize {
     let off = (window.origin - grid.origin) / grid.h;
@@ -223,7 +230,18 @@ pub fn detect(
     for &(node, ga, ia, gb, ib) in &pairs {
         // Normal from grain gb into grain ga. The solver's `Σ m_p ∇S_ip` is taken with
         // respect to the point, so it is minus the spatial mass gradient at the node.
-        let d = grains[gb].solver.mass_gradient()[ib] - grains[ga].solver.mass_gradient()[ia];
+        let (ma, mb) = (
+            -grains[ga].solver.mass_gradient()[ia],
+            -grains[gb].solver.mass_gradient()[ib],
+        );
+        // The two surfaces must face each other: spatial gradients within 60° of opposite.
+        // (Beside a contact both gradients point along the common tangent; the pair's
+        // normal then lies in the surfaces, the clouds' projections overlap by cells and the
+        // node would lock their sliding.)
+        if ma.dot(&-mb) < FACING * ma.norm() * mb.norm() {
+            continue;
+        }
+        let d = ma - mb;
         let len = d.norm();
         if len.is_nan() || len <= 0.0 {
             continue;

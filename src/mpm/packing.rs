@@ -24,6 +24,56 @@
 //! these steps (`ωΔt ≈ 30`).
 //!
 //! A step whose iteration fails is redone as two half steps (at most `MAX_HALVINGS`).
+//!
+//! # Decisions the paper leaves open (METHODS §7.3, §7.5)
+//! * **Coupling**: the condensed-Delassus scheme B above, not the staggered scheme A.
+//!   Newton's residual tolerance is the single grain's (`NewtonParams`, 1e-6 of the force
+//!   scale); from the Newmark predictor the residual falls like 5e-2, 1e-3, 1e-5, 1e-7, so a
+//!   loaded step takes 4 iterations (the wall travels 0.05 h_g per step, and the first
+//!   linearisation errs by about that fraction). NLGS tolerance 1e-6 (`NlgsParams`); the
+//!   forces agree with those at 1e-10 to 1e-3 (tested).
+//! * **Grids**: one common grid; each grain's "proper mesh" is the window of it covering
+//!   its points plus 3 cells, so the meshes coincide (METHODS §4.1). The cell is
+//!   `h_g = 2 Δr` with `Δr = resolution × mean grain radius` (the packing's grid is not
+//!   given); every grain is seeded 2×2 per cell on the same lattice and its point areas
+//!   rescaled to `π R²` (as for the single grain).
+//! * **Contact nodes, normal, gap, law**: see `super::node_contact` (nodes where two grains
+//!   have non-light mass, one contact per pair; mass-gradient normals; point-cloud gap in a
+//!   strip of one cell; Signorini on the end-of-step gap with overlaps left alone; Coulomb
+//!   on the slip increment of the step; alert distance `h_g`). Walls: infinite mass,
+//!   frictionless by default, detected as for the single grain's plates.
+//! * **Warm start** of the node forces by (common node, grain, partner).
+//! * **Start**: grains at rest in the unjammed layout, no quasi-static velocity field (they
+//!   carry no load until the top wall or a neighbour reaches them).
+//! * **Known limit**: node contact holds nodes, not points, so the point clouds can overlap
+//!   where a grain's surface is coarse: 0.06–0.08 h_g for two grains of R = 5 cells, up to
+//!   0.44 h_g in the wedge of three grains of R = 3.3 cells at 5 % strain (tests). Seeded
+//!   disks that touch in the deposit already show −0.2 to −0.3 h_g.
+//! * **Open problem** (`pipelines/mpm-packing-small.yaml`, 16 grains, Δr/R = 0.12): up to
+//!   ε ≈ 0.2 Φ follows Φ0 e^ε with Σ v_p within 1 % and overlaps below 0.3 h_g; beyond,
+//!   without friction Σ v_p *grows* (+13 % at ε = 0.27, +18 % at 0.35) while the clouds
+//!   overlap by up to 4 h_g and the coupling takes 26–28 iterations per step; with
+//!   μ = 0.5 Σ v_p stays within 0.7 % but the overlap reaches 1.8 h_g at ε = 0.35. Not
+//!   resolved; suspects: nodes shared by several grains constraining along inconsistent
+//!   normals, and the overlap never being pushed back (`max(g, 0)`; a 30 % per-step
+//!   recovery was tried and made the packing worse).
+//!
+//! # Cost (measured, one thread, 30 grains from Φ0 = 0.672 to ε = 0.02, μ = 0.5, Z ≈ 2)
+//! | Δr/R | points | steps | CPU s/step | ms per grain-step | peak RSS |
+//! | --- | --- | --- | --- | --- | --- |
+//! | 0.1 | 9,652 | 27 | 0.082 | 2.7 | 53 MB |
+//! | 0.05 | 38,589 | 53 | 0.37 | 12.3 | 187 MB |
+//! | 0.029 | 114,724 | 90 | 1.46 | 48.6 | 555 MB |
+//!
+//! About 4.5 coupling iterations per step at this stage; later in the compaction it rises
+//! to 9–28 (small pipeline), so the figures above are lower bounds. Profile: NLGS 22 %
+//! (sequential), triangular solves 15 %, assembly 19 %. The paper's scene (300 grains,
+//! L ≈ h0 ≈ 36 mm, ε = 0.5: 14 mm of wall travel at 0.05 h_g per step) would need, per
+//! case on one core, ≥ 21 h at Δr/R = 0.029 (5,300 steps; ~5.5 GB), ≥ 3.1 h at 0.05
+//! (3,100 steps; ~1.9 GB) and ≥ 21 min at 0.1 (1,540 steps; ~0.5 GB); two cores give at
+//! most 1.6× (the NLGS is sequential). Only Δr/R ≈ 0.1 fits memory and comes near the
+//! time budget, and even it exceeds 60 min for the two MPM cases once the later
+//! iteration counts are included. The small pipeline uses 0.12.
 
 use super::contact::Wall;
 use super::error::MpmError;

@@ -4,6 +4,7 @@
 pub mod compact;
 pub mod discretise;
 pub mod frames;
+pub mod mpm_packing;
 pub mod mpm_single;
 pub mod prepare;
 
@@ -23,6 +24,9 @@ pub enum StageState {
     MpmCompacted(mpm_single::MpmCompacted),
     /// A compacted packing, either method.
     Packing(crate::compaction::PackingCompacted),
+    /// The disks of a packing to become MPM grains (last: checkpoints keep their variant
+    /// numbers).
+    MpmPacking(mpm_packing::MpmPackingGrains),
 }
 
 impl StageState {
@@ -33,6 +37,12 @@ impl StageState {
             StageState::Bpm(g) => serde_json::to_value(&g.figures).unwrap_or_default(),
             StageState::Compacted(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
             StageState::Mpm(g) => serde_json::to_value(g).unwrap_or_default(),
+            StageState::MpmPacking(g) => serde_json::json!({
+                "grains": g.radii.len(),
+                "points": g.points,
+                "cell": g.cell,
+                "resolution": g.resolution,
+            }),
             StageState::Packing(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
             StageState::MpmCompacted(c) => {
                 serde_json::json!({"stats": c.stats, "small_strain": c.small_strain})
@@ -64,12 +74,7 @@ pub fn supported(p: &Pipeline, node: &Node) -> Result<(), String> {
     let packing = p.prepare.layout == Layout::Packing;
     match node.stage {
         Stage::Prepare => Ok(()),
-        Stage::Discretise | Stage::Compact if packing && node.method == Some(Method::Mpm) => {
-            Err(format!(
-                "the MPM {} stage of packings is not built in this version (single grains are)",
-                node.stage.name()
-            ))
-        }
+        Stage::Discretise | Stage::Compact if packing && node.method == Some(Method::Mpm) => Ok(()),
         Stage::Compact if packing => Err(
             "the BPM compaction of packings is not built in this version (single grains are)"
                 .into(),
@@ -90,6 +95,17 @@ pub fn run(
         (Stage::Prepare, _) => {
             let (state, summary) = prepare::run(p, ctx)?;
             Ok((StageState::Prepared(state), summary))
+        }
+        (Stage::Discretise, [StageState::Prepared(prep)])
+            if node.method == Some(Method::Mpm) && prep.layout == Layout::Packing =>
+        {
+            let m = p
+                .discretise
+                .as_ref()
+                .and_then(|d| d.mpm.as_ref())
+                .expect("validated");
+            let (g, summary) = mpm_packing::discretise(m, prep)?;
+            Ok((StageState::MpmPacking(g), summary))
         }
         (Stage::Discretise, [StageState::Prepared(prep)]) if node.method == Some(Method::Mpm) => {
             let m = p
@@ -115,6 +131,11 @@ pub fn run(
             let mu = node.params["friction"].as_f64().unwrap_or(0.0);
             let (c, summary) = compact::run_bpm(p, mu, g, ctx)?;
             Ok((StageState::Compacted(c), summary))
+        }
+        (Stage::Compact, [StageState::MpmPacking(g)]) => {
+            let mu = node.params["friction"].as_f64().unwrap_or(0.0);
+            let (c, summary) = mpm_packing::compact(p, mu, g, ctx)?;
+            Ok((StageState::Packing(c), summary))
         }
         (Stage::Compact, [StageState::Mpm(g)]) => {
             let (c, summary) = mpm_single::compact(p, g, ctx)?;
