@@ -12,6 +12,8 @@ const GRAIN: &str = "name: g\nseed: 5\nprepare:\n  layout: single\n  radius: 1.5
 
 const DEPOSIT: &str = "name: g\nseed: 5\nprepare:\n  grains: 120\n  diameter: [1.4e-3, 2.4e-3]\noutput:\n  every: 100\n  snapshot_every: 100\n";
 
+const MPM_PACKING: &str = "name: g\nseed: 5\nprepare:\n  grains: 8\n  diameter: [1.4e-3, 2.4e-3]\ndiscretise:\n  method: mpm\n  mpm:\n    young: 1.0e7\n    poisson: 0.45\n    density: 990.0\n    resolution: 0.12\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.15\n  friction: 0.5\noutput:\n  every: 10\n  snapshot_every: 15\n";
+
 fn spawn(file: &Path, out: &Path) -> std::process::Child {
     Command::new(env!("CARGO_BIN_EXE_softgrain"))
         .args([
@@ -121,6 +123,16 @@ fn a_compaction_killed_several_times_ends_as_an_uninterrupted_one() {
         "kill-bpm",
         &[400, 900, 1400, 1900],
         &["compact/bpm-mu0/timeseries.csv"],
+    );
+}
+
+#[test]
+fn an_mpm_packing_killed_several_times_ends_as_an_uninterrupted_one() {
+    killed_runs_end_as_uninterrupted(
+        MPM_PACKING,
+        "kill-mpm-packing",
+        &[1500, 3000, 4500],
+        &["compact/mpm-mu0.5/timeseries.csv"],
     );
 }
 
