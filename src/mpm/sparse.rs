@@ -263,8 +263,20 @@ mod tests {
         for (a, e) in b.iter().zip(&x) {
             assert!((a - e).abs() < 1e-12);
         }
+        // one factorisation, two right-hand sides at once (the condensed compliance)
+        s.factorize(&[false; 6]).unwrap();
+        let y: Vec<f64> = (0..6).map(|i| (i * i) as f64 - 2.0).collect();
+        let (mut bx, mut by) = (vec![0.0; 6], vec![0.0; 6]);
+        s.matvec(&x, &mut bx);
+        s.matvec(&y, &mut by);
+        let mut both = [bx, by].concat();
+        s.solve_factored(&mut both, 2).unwrap();
+        for (a, e) in both.iter().zip(x.iter().chain(&y)) {
+            assert!((a - e).abs() < 1e-12);
+        }
         let mut pairs = vec![(0, 1), (1, 2)];
         s.set_pattern(3, &mut pairs);
         assert!(!s.new_symbolic);
+        assert!(s.solve_factored(&mut [0.0; 6], 1).is_err());
     }
 }
