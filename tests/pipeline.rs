@@ -215,7 +215,7 @@ fn bad_input_exits_2_naming_file_key_value_and_position() {
 #[test]
 fn a_stage_not_built_yet_is_refused_before_any_work() {
     let dir = temp_dir("unbuilt");
-    let f = write(&dir, "g.yaml", GRAPH);
+    let f = write(&dir, "g.yaml", &format!("{GRAPH}analyse: {{}}\n"));
     let o = softgrain(&[
         "pipeline",
         "run",
@@ -225,7 +225,7 @@ fn a_stage_not_built_yet_is_refused_before_any_work() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("MPM discretise stage of packings is not built"),
+        stderr(&o).contains("analyse stage is not built"),
         "{}",
         stderr(&o)
     );

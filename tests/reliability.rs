@@ -36,6 +36,8 @@ fn random_kills(n: usize, lo: u64, hi: u64) -> Vec<u64> {
     v
 }
 
+const MPM_PACKING: &str = "name: g\nseed: 5\nprepare:\n  grains: 8\n  diameter: [1.4e-3, 2.4e-3]\ndiscretise:\n  method: mpm\n  mpm:\n    young: 1.0e7\n    poisson: 0.45\n    density: 990.0\n    resolution: 0.12\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.15\n  friction: 0.5\noutput:\n  every: 10\n  snapshot_every: 15\n";
+
 fn spawn(file: &Path, out: &Path) -> std::process::Child {
     Command::new(env!("CARGO_BIN_EXE_softgrain"))
         .args([
@@ -155,6 +157,16 @@ fn a_compaction_killed_several_times_ends_as_an_uninterrupted_one() {
         "kill-bpm",
         &random_kills(4, 300, 2000),
         &["compact/bpm-mu0/timeseries.csv"],
+    );
+}
+
+#[test]
+fn an_mpm_packing_killed_several_times_ends_as_an_uninterrupted_one() {
+    killed_runs_end_as_uninterrupted(
+        MPM_PACKING,
+        "kill-mpm-packing",
+        &random_kills(3, 1000, 5000),
+        &["compact/mpm-mu0.5/timeseries.csv"],
     );
 }
 

@@ -25,7 +25,8 @@
 //! when that force exceeds `μ f_n` the node slides, loaded by `μ f_n` (lagged by one
 //! Newton iteration) against its slip, and sticks again if the slip reverses.
 //!
-//! Grain–grain contact at shared nodes (Eqs. 11–12) is to grow in this file.
+//! Packings use the same detection and solve every node contact, walls included, by
+//! contact dynamics on the condensed compliance (`super::node_contact`).
 
 use super::grid::Grid;
 use super::points::Points;
@@ -93,6 +94,8 @@ pub struct NodeContact {
     pub dof: usize,
     /// `n` along the DOF axis (±1).
     pub sign: f64,
+    /// Gap `g_i` from the points at the start of the step (m).
+    pub gap: f64,
     /// Lower bound on `sign · u_dof`: `Δt V_w·n - max(g_i, 0)`.
     pub bound: f64,
     pub active: bool,
@@ -145,6 +148,7 @@ pub fn detect<'a>(
                     node: i,
                     dof: 2 * i + axis,
                     sign,
+                    gap: gap[i],
                     bound: dt * wall.velocity.dot(&wall.normal) - gap[i].max(0.0),
                     active: false,
                     force: 0.0,

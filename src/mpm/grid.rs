@@ -4,7 +4,7 @@ use super::shape::{MAX_PER_AXIS, ShapeKind, Stencil};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Grid {
     /// Position of node (0, 0) (m).
     pub origin: Vector2<f64>,

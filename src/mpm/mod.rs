@@ -46,6 +46,9 @@
 //!   the iteration is redone with the initial elastic matrix; an iterate that inverts a
 //!   point is pulled back by halving. About 5 Newton iterations per step to 30 % strain.
 //! * **Plate force.** `σ = F/L` uses the mean of the two plate forces; both are recorded.
+//! * **Packings** (`packing`, `node_contact`): one nodal field per grain on windows of a
+//!   common grid, node contact between grains and with the walls by contact dynamics on
+//!   the condensed compliance (METHODS §4.4B); their decisions are listed in `packing`.
 //! * **Time step.** Chosen from the plate travel per step (default 0.05 h_g), not from CFL.
 //!   A step whose Newton solve fails is redone as two half steps (at most 3 halvings,
 //!   counted in `RunStats::halvings`) before the error is returned.
@@ -58,6 +61,8 @@ pub mod error;
 pub mod grid;
 pub mod material;
 pub mod newmark;
+pub mod node_contact;
+pub mod packing;
 pub mod points;
 pub mod shape;
 pub mod solve;

@@ -86,12 +86,16 @@ pub struct StepStats {
 /// Workspace of the implicit step; allocated once and reused (not part of any checkpoint).
 #[derive(Default)]
 pub struct Solver {
+    /// Body force per unit mass on every node (m/s²; zero unless set).
+    pub gravity: Vector2<f64>,
     conn: Connectivity,
     pt_g: Vec<Vector2<f64>>,
     dbar0: Vec<Vector2<f64>>,
     /// `tr(σ ΔF̄^{-T})`, the pressure-like factor of the B-bar internal force.
     trial_tr: Vec<f64>,
     m: Vec<f64>,
+    /// Start-of-step nodal mass gradient `Σ_p m_p ∇S_ip` (contact normals, METHODS §4.2).
+    mgrad: Vec<Vector2<f64>>,
     vn: Vec<Vector2<f64>>,
     an: Vec<Vector2<f64>>,
     u: Vec<f64>,
@@ -159,25 +163,7 @@ impl Solver {
             contact::warm_start(&mut self.contacts, &self.conn.act_grid, &self.prev_active);
         }
 
-        // Sparsity pattern: every pair of nodes sharing a point (or a B-bar cell).
-        self.pairs.clear();
-        for g in 0..self.conn.grp_off.len() - 1 {
-            let nodes = &self.conn.grp_nodes[self.conn.grp_off[g]..self.conn.grp_off[g + 1]];
-            for &a in nodes {
-                for &b in nodes {
-                    if a < b {
-                        self.pairs.push((a, b));
-                    }
-                }
-            }
-        }
-        self.sys.set_pattern(n, &mut self.pairs);
-
-        for i in 0..n {
-            let u0 = nm.predictor(self.vn[i], self.an[i], dt);
-            self.u[2 * i] = u0.x;
-            self.u[2 * i + 1] = u0.y;
-        }
+        self.pattern_and_predictor(nm, dt);
 
         let c1 = nm.mass_factor(dt);
         let tol = params.newton;
@@ -205,15 +191,7 @@ impl Solver {
                 }
             }
             self.assemble(points, material, c1, true);
-            let mut inertia_sq = 0.0;
-            for i in 0..n {
-                let a = nm.accel(vec2(&self.u, i), self.vn[i], self.an[i], dt);
-                let ma = a * self.m[i];
-                inertia_sq += ma.norm_squared();
-                self.res[2 * i] = -self.fint[2 * i] - ma.x;
-                self.res[2 * i + 1] = -self.fint[2 * i + 1] - ma.y;
-            }
-            let scale0 = norm(&self.fint).max(inertia_sq.sqrt());
+            let scale0 = self.residual(nm, dt);
             changed = contact::update_active_set(
                 &mut self.contacts,
                 &self.u,
@@ -305,7 +283,153 @@ impl Solver {
     }
 }
 
+/// The phases of one step, for a driver that couples several grains through their contact
+/// nodes (`super::packing`): `begin`, then per coupling iteration `evaluate_residual`,
+/// `factorize` and `solve`s with `add_increment`, and `finish` at convergence.
 impl Solver {
+    /// P2G of `points` on `grid` (a window of the common grid), the sparsity pattern and
+    /// the Newmark predictor.
+    pub fn begin(
+        &mut self,
+        params: &SolverParams,
+        grid: &Grid,
+        points: &Points,
+        dt: f64,
+        step: u64,
+    ) -> Result<(), MpmError> {
+        self.conn
+            .build(params.shape, params.bbar, grid, points, step)?;
+        self.resize(points.len());
+        self.p2g(points);
+        self.contacts.clear();
+        self.pattern_and_predictor(params.newmark, dt);
+        Ok(())
+    }
+
+    /// Stresses, internal force and tangent at the current iterate; leaves the residual
+    /// without contact forces, `f_ext - f_int - M a`, in `residual()`. Returns its force
+    /// scale `max(‖f_int‖, ‖M a‖)`.
+    pub fn evaluate_residual(
+        &mut self,
+        params: &SolverParams,
+        material: &Material,
+        points: &Points,
+        dt: f64,
+        step: u64,
+    ) -> Result<f64, MpmError> {
+        self.evaluate(params, material, points, step)?;
+        self.assemble(points, material, params.newmark.mass_factor(dt), true);
+        Ok(self.residual(params.newmark, dt))
+    }
+
+    /// Factorises the effective stiffness of the last `evaluate_residual`; if the
+    /// consistent tangent is not positive definite, the initial elastic one is used
+    /// (modified Newton, as in `step`).
+    pub fn factorize(
+        &mut self,
+        params: &SolverParams,
+        material: &Material,
+        points: &Points,
+        dt: f64,
+        step: u64,
+    ) -> Result<(), MpmError> {
+        self.fixed.iter_mut().for_each(|f| *f = false);
+        if self.sys.factorize(&self.fixed).is_err() {
+            self.assemble(points, material, params.newmark.mass_factor(dt), false);
+            self.sys
+                .factorize(&self.fixed)
+                .map_err(|reason| MpmError::LinearSolve { step, reason })?;
+        }
+        Ok(())
+    }
+
+    /// Solves `K X = B` in place for `cols` columns of length `2 × nodes().len()`.
+    pub fn solve(&mut self, rhs: &mut [f64], cols: usize, step: u64) -> Result<(), MpmError> {
+        self.sys
+            .solve_factored(rhs, cols)
+            .map_err(|reason| MpmError::LinearSolve { step, reason })
+    }
+
+    /// `u += du`.
+    pub fn add_increment(&mut self, du: &[f64]) {
+        for (u, d) in self.u.iter_mut().zip(du) {
+            *u += d;
+        }
+    }
+
+    /// G2P with the current iterate (METHODS §3.3 step 8).
+    pub fn finish(&mut self, nm: Newmark, points: &mut Points, dt: f64) {
+        self.g2p(nm, points, dt);
+    }
+
+    /// Active nodes as ids of the grid passed to `begin`.
+    pub fn nodes(&self) -> &[usize] {
+        &self.conn.act_grid
+    }
+
+    pub fn node_mass(&self) -> &[f64] {
+        &self.m
+    }
+
+    /// `Σ_p m_p ∇S_ip` at the start of the step, per active node.
+    pub fn mass_gradient(&self) -> &[Vector2<f64>] {
+        &self.mgrad
+    }
+
+    /// The active nodes point `p` reaches with a positive weight.
+    pub fn point_nodes(&self, p: usize) -> &[usize] {
+        &self.conn.own_act[self.conn.own_off[p]..self.conn.own_off[p + 1]]
+    }
+
+    /// Residual of the last `evaluate_residual` (2 per active node).
+    pub fn residual_vector(&self) -> &[f64] {
+        &self.res
+    }
+
+    /// Current displacement increment `u` (2 per active node).
+    pub fn displacement(&self) -> &[f64] {
+        &self.u
+    }
+}
+
+impl Solver {
+    /// Sparsity pattern (every pair of nodes sharing a point or a B-bar cell) and the
+    /// predictor `u = Δt v + Δt²/2 a`.
+    fn pattern_and_predictor(&mut self, nm: Newmark, dt: f64) {
+        let n = self.conn.act_grid.len();
+        self.pairs.clear();
+        for g in 0..self.conn.grp_off.len() - 1 {
+            let nodes = &self.conn.grp_nodes[self.conn.grp_off[g]..self.conn.grp_off[g + 1]];
+            for &a in nodes {
+                for &b in nodes {
+                    if a < b {
+                        self.pairs.push((a, b));
+                    }
+                }
+            }
+        }
+        self.sys.set_pattern(n, &mut self.pairs);
+        for i in 0..n {
+            let u0 = nm.predictor(self.vn[i], self.an[i], dt);
+            self.u[2 * i] = u0.x;
+            self.u[2 * i + 1] = u0.y;
+        }
+    }
+
+    /// `res = m g - f_int - M a(u)` without contact forces; returns `max(‖f_int‖, ‖M a‖)`.
+    fn residual(&mut self, nm: Newmark, dt: f64) -> f64 {
+        let mut inertia_sq = 0.0;
+        for i in 0..self.m.len() {
+            let a = nm.accel(vec2(&self.u, i), self.vn[i], self.an[i], dt);
+            let ma = a * self.m[i];
+            inertia_sq += ma.norm_squared();
+            let fe = self.gravity * self.m[i];
+            self.res[2 * i] = fe.x - self.fint[2 * i] - ma.x;
+            self.res[2 * i + 1] = fe.y - self.fint[2 * i + 1] - ma.y;
+        }
+        norm(&self.fint).max(inertia_sq.sqrt())
+    }
+
     /// Sizes the per-node and per-point buffers after `Connectivity::build`.
     fn resize(&mut self, np: usize) {
         let n = self.conn.act_grid.len();
@@ -343,11 +467,14 @@ impl Solver {
         self.vn.resize(n, Vector2::zeros());
         self.an.clear();
         self.an.resize(n, Vector2::zeros());
+        self.mgrad.clear();
+        self.mgrad.resize(n, Vector2::zeros());
         for p in 0..points.len() {
             let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
             let nodes = &self.conn.grp_nodes[self.conn.grp_off[g]..self.conn.grp_off[g + 1]];
             for (k, &i) in nodes.iter().enumerate() {
                 let wm = self.conn.pt_w[off + k] * points.mass[p];
+                self.mgrad[i] += self.conn.pt_g0[off + k] * points.mass[p];
                 self.m[i] += wm;
                 self.vn[i] += points.v[p] * wm;
                 self.an[i] += points.a[p] * wm;

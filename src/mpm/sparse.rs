@@ -5,7 +5,8 @@
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Par, Side};
@@ -30,6 +31,10 @@ pub struct SymSystem {
     factor: Vec<f64>,
     factor_mem: Option<MemBuffer>,
     solve_mem: Option<MemBuffer>,
+    /// Right-hand sides `solve_mem` is sized for.
+    solve_cols: usize,
+    /// Whether `factor` holds the factorisation of the current values.
+    factored: bool,
     /// Whether the last `set_pattern` had to redo the symbolic analysis.
     pub new_symbolic: bool,
 }
@@ -85,6 +90,7 @@ impl SymSystem {
         if self.new_symbolic {
             self.symbolic = None;
         }
+        self.factored = false;
     }
 
     pub fn zero(&mut self) {
@@ -142,6 +148,13 @@ impl SymSystem {
     /// Solves `K x = rhs` in place, with the DOFs in `fixed` eliminated (their rows and
     /// columns reduced to the diagonal; the caller has moved their coupling to `rhs`).
     pub fn solve(&mut self, fixed: &[bool], rhs: &mut [f64]) -> Result<(), String> {
+        self.factorize(fixed)?;
+        self.solve_factored(rhs, 1)
+    }
+
+    /// Numeric Cholesky factorisation of `K` with the DOFs in `fixed` eliminated (kept for
+    /// `solve_factored` until the next `factorize`).
+    pub fn factorize(&mut self, fixed: &[bool]) -> Result<(), String> {
         for (k, s) in self.src.iter().enumerate() {
             let (b, r, c) = (s / 4, (s % 4) / 2, s % 2);
             self.val[k] = self.blocks[b][(r, c)];
@@ -156,7 +169,8 @@ impl SymSystem {
         }
         let n = 2 * self.n_nodes;
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
-        // Sequential: the systems are small (a few thousand DOFs) and the machine shared.
+        // Sequential: the systems are small (a few thousand DOFs) and the machine shared;
+        // packings solve their grains in parallel instead.
         let par = Par::Seq;
         if self.symbolic.is_none() {
             let params = CholeskySymbolicParams {
@@ -171,17 +185,15 @@ impl SymSystem {
             self.factor_mem = Some(MemBuffer::new(
                 symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
             ));
-            self.solve_mem = Some(MemBuffer::new(
-                symbolic.solve_in_place_scratch::<f64>(1, par),
-            ));
+            self.solve_mem = None;
+            self.solve_cols = 0;
             self.symbolic = Some(symbolic);
         }
-        let (Some(symbolic), Some(fmem), Some(smem)) =
-            (&self.symbolic, &mut self.factor_mem, &mut self.solve_mem)
-        else {
+        let (Some(symbolic), Some(fmem)) = (&self.symbolic, &mut self.factor_mem) else {
             return Err("no symbolic factorisation".into());
         };
-        let llt = symbolic
+        self.factored = false;
+        symbolic
             .factorize_numeric_llt::<f64>(
                 &mut self.factor,
                 SparseColMatRef::new(sym, &self.val),
@@ -192,9 +204,31 @@ impl SymSystem {
                 Default::default(),
             )
             .map_err(|e| format!("{e:?}"))?;
-        llt.solve_in_place_with_conj(
+        self.factored = true;
+        Ok(())
+    }
+
+    /// Solves `K X = B` in place for `cols` right-hand sides stored column after column in
+    /// `rhs`, with the last factorisation.
+    pub fn solve_factored(&mut self, rhs: &mut [f64], cols: usize) -> Result<(), String> {
+        let n = 2 * self.n_nodes;
+        let Some(symbolic) = self.symbolic.as_ref().filter(|_| self.factored) else {
+            return Err("solve before factorisation".into());
+        };
+        if rhs.len() != n * cols {
+            return Err(format!("{} values for {cols} columns of {n}", rhs.len()));
+        }
+        let par = Par::Seq;
+        if self.solve_mem.is_none() || self.solve_cols < cols {
+            self.solve_mem = Some(MemBuffer::new(
+                symbolic.solve_in_place_scratch::<f64>(cols, par),
+            ));
+            self.solve_cols = cols;
+        }
+        let smem = self.solve_mem.as_mut().expect("allocated above");
+        LltRef::new(symbolic, &self.factor).solve_in_place_with_conj(
             Conj::No,
-            faer::MatMut::from_column_major_slice_mut(rhs, n, 1),
+            faer::MatMut::from_column_major_slice_mut(rhs, n, cols),
             par,
             MemStack::new(smem),
         );
@@ -229,8 +263,20 @@ mod tests {
         for (a, e) in b.iter().zip(&x) {
             assert!((a - e).abs() < 1e-12);
         }
+        // one factorisation, two right-hand sides at once (the condensed compliance)
+        s.factorize(&[false; 6]).unwrap();
+        let y: Vec<f64> = (0..6).map(|i| (i * i) as f64 - 2.0).collect();
+        let (mut bx, mut by) = (vec![0.0; 6], vec![0.0; 6]);
+        s.matvec(&x, &mut bx);
+        s.matvec(&y, &mut by);
+        let mut both = [bx, by].concat();
+        s.solve_factored(&mut both, 2).unwrap();
+        for (a, e) in both.iter().zip(x.iter().chain(&y)) {
+            assert!((a - e).abs() < 1e-12);
+        }
         let mut pairs = vec![(0, 1), (1, 2)];
         s.set_pattern(3, &mut pairs);
         assert!(!s.new_symbolic);
+        assert!(s.solve_factored(&mut [0.0; 6], 1).is_err());
     }
 }

@@ -5,6 +5,7 @@ pub mod bpm_packing;
 pub mod compact;
 pub mod discretise;
 pub mod frames;
+pub mod mpm_packing;
 pub mod mpm_single;
 pub mod prepare;
 
@@ -24,6 +25,9 @@ pub enum StageState {
     MpmCompacted(mpm_single::MpmCompacted),
     /// A compacted packing, either method.
     Packing(crate::compaction::PackingCompacted),
+    /// The disks of a packing to become MPM grains (last: checkpoints keep their variant
+    /// numbers).
+    MpmPacking(mpm_packing::MpmPackingGrains),
 }
 
 impl StageState {
@@ -34,6 +38,12 @@ impl StageState {
             StageState::Bpm(g) => serde_json::to_value(&g.figures).unwrap_or_default(),
             StageState::Compacted(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
             StageState::Mpm(g) => serde_json::to_value(g).unwrap_or_default(),
+            StageState::MpmPacking(g) => serde_json::json!({
+                "grains": g.radii.len(),
+                "points": g.points,
+                "cell": g.cell,
+                "resolution": g.resolution,
+            }),
             StageState::Packing(c) => serde_json::to_value(&c.figures).unwrap_or_default(),
             StageState::MpmCompacted(c) => {
                 serde_json::json!({"stats": c.stats, "small_strain": c.small_strain})
@@ -61,17 +71,9 @@ pub(crate) fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> C
 
 /// Whether this build can run a node; a node it cannot is refused before any work starts,
 /// never faked.
-pub fn supported(p: &Pipeline, node: &Node) -> Result<(), String> {
-    let packing = p.prepare.layout == Layout::Packing;
+pub fn supported(_p: &Pipeline, node: &Node) -> Result<(), String> {
     match node.stage {
-        Stage::Prepare => Ok(()),
-        Stage::Discretise | Stage::Compact if packing && node.method == Some(Method::Mpm) => {
-            Err(format!(
-                "the MPM {} stage of packings is not built in this version (single grains are)",
-                node.stage.name()
-            ))
-        }
-        Stage::Discretise | Stage::Compact => Ok(()),
+        Stage::Prepare | Stage::Discretise | Stage::Compact => Ok(()),
         Stage::Analyse => Err("the analyse stage is not built in this version".into()),
     }
 }
@@ -87,6 +89,17 @@ pub fn run(
         (Stage::Prepare, _) => {
             let (state, summary) = prepare::run(p, ctx)?;
             Ok((StageState::Prepared(state), summary))
+        }
+        (Stage::Discretise, [StageState::Prepared(prep)])
+            if node.method == Some(Method::Mpm) && prep.layout == Layout::Packing =>
+        {
+            let m = p
+                .discretise
+                .as_ref()
+                .and_then(|d| d.mpm.as_ref())
+                .expect("validated");
+            let (g, summary) = mpm_packing::discretise(m, prep)?;
+            Ok((StageState::MpmPacking(g), summary))
         }
         (Stage::Discretise, [StageState::Prepared(prep)]) if node.method == Some(Method::Mpm) => {
             let m = p
@@ -117,6 +130,11 @@ pub fn run(
             let mu = node.params["friction"].as_f64().unwrap_or(0.0);
             let (c, summary) = compact::run_bpm(p, mu, g, ctx)?;
             Ok((StageState::Compacted(c), summary))
+        }
+        (Stage::Compact, [StageState::MpmPacking(g)]) => {
+            let mu = node.params["friction"].as_f64().unwrap_or(0.0);
+            let (c, summary) = mpm_packing::compact(p, mu, g, ctx)?;
+            Ok((StageState::Packing(c), summary))
         }
         (Stage::Compact, [StageState::Mpm(g)]) => {
             let (c, summary) = mpm_single::compact(p, g, ctx)?;

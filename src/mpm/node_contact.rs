@@ -1,0 +1,459 @@
+//! Node contact between grains, and between grains and walls, solved by contact dynamics on
+//! the common grid (paper Eqs. 11–12, METHODS §4). Every node contact of a packing lives
+//! here: detection, the local law and the nonlinear Gauss–Seidel (NLGS).
+//!
+//! * **Candidates.** A node of the common grid where two grains both have (non-light) mass
+//!   gives one contact per pair of grains present (three grains: three contacts, §4.5),
+//!   provided the two grains' mass gradients there are within 60° of opposite (`FACING`):
+//!   beside a contact both point along the common tangent, and the pair's normal would lie
+//!   in the surfaces (gaps of -4 h_g were measured there, and such a node locks sliding).
+//!   Wall candidates are those of the single grain (`super::contact::detect`): nodes behind
+//!   the wall or less than half a cell in front of it. Candidates whose gap exceeds the alert
+//!   distance are dropped for this step.
+//! * **Normal** from β into α, `n = (∇m^α - ∇m^β)/|∇m^α - ∇m^β|` with `∇m` the spatial
+//!   gradient of the nodal mass at the start of the step, `-Σ_p m_p ∇S_ip` (∇S taken with
+//!   respect to the point): one normal per pair, so
+//!   `n^α = -n^β` (collinear). Walls use their own normal.
+//! * **Gap** from the point clouds near the node (the points with `S_ip > 0`),
+//!   `g = min_α (x_p·n - l_p(-n)) - max_β (x_q·n + l_q(n))`, with `l_p(n)` the support
+//!   `√((n_x l_x)² + (n_y l_y)²)` of the ellipse on the point's reaches toward the contact
+//!   (`Points::reach`: `Δr/2` clipped by the seeded circle and stretched with `F`).
+//! * **Law**, written on the displacement increment `u` of the step (the relative
+//!   displacement `d = u^α - u^β`, walls `u^β = Δt V_w`): Signorini on the end-of-step
+//!   gap with overlaps left alone, `max(g, 0) + d·n >= 0 ⊥ f_n >= 0` (as for the single
+//!   grain's plates), and Coulomb on the slip increment `d·t`. With the lumped-mass
+//!   compliance `W = β Δt² (1/m^α + 1/m^β)` this is Eq. 11–12 of the paper (the relation
+//!   `f = (2/Δt) m* (v - v_free)` times `Δt/2`); here `W` is the condensed compliance of
+//!   the implicit grain, `[K_eff^α]^{-1} + [K_eff^β]^{-1}` on the contact DOFs (METHODS §4.4B).
+//! * **NLGS.** Each contact's local problem uses its diagonal 2×2 block of `W` (projection
+//!   of `f_n`, then of `f_t` onto `[-μ f_n, μ f_n]` with the normal–tangential coupling),
+//!   and pushes its force change into the slot displacements of both grains through the
+//!   full compliance columns, so contacts sharing a grain see each other at once.
+//!   Contacts are visited in a fixed order (deterministic runs). Converged when a sweep
+//!   changes `Σ|Δf|` by less than `tol` of `Σ|f|`.
+
+use super::contact::{self as plate, Wall};
+use super::grid::Grid;
+use super::points::Points;
+use super::solve::Solver;
+use nalgebra::{Matrix2, Vector2};
+use serde::{Deserialize, Serialize};
+
+/// The other side of a node contact.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Partner {
+    Grain(usize),
+    Wall(usize),
+}
+
+/// One node contact of the current step.
+#[derive(Clone, Copy, Debug)]
+pub struct NodeContact {
+    /// Node id on the common grid.
+    pub node: usize,
+    /// Grain on the `+n` side, and its contact slot.
+    pub a: usize,
+    pub slot_a: usize,
+    pub partner: Partner,
+    /// The partner grain's slot (unused for walls).
+    pub slot_b: usize,
+    /// Unit normal from the partner into `a`.
+    pub normal: Vector2<f64>,
+    /// Point-cloud gap at the start of the step (m).
+    pub gap: f64,
+    /// A wall partner's displacement over the step, `Δt V_w` (m).
+    pub wall_disp: Vector2<f64>,
+    pub friction: f64,
+    /// Normal and tangential force on `a` (N/m), `t = (-n_y, n_x)`; the partner feels
+    /// the opposite.
+    pub force_n: f64,
+    pub force_t: f64,
+}
+
+impl NodeContact {
+    pub fn tangent(&self) -> Vector2<f64> {
+        Vector2::new(-self.normal.y, self.normal.x)
+    }
+
+    /// Force on grain `a` (N/m).
+    pub fn force(&self) -> Vector2<f64> {
+        self.normal * self.force_n + self.tangent() * self.force_t
+    }
+
+    /// Key for warm starts across steps: (node, grain, partner).
+    pub fn key(&self) -> (usize, usize, Partner) {
+        (self.node, self.a, self.partner)
+    }
+}
+
+/// One grain as contact detection sees it, after `Solver::begin`.
+pub struct GrainView<'a> {
+    pub solver: &'a Solver,
+    pub points: &'a Points,
+    /// The window of the common grid the solver's node ids refer to.
+    pub window: &'a Grid,
+}
+
+/// Contact nodes of one grain: its contact DOFs and their condensed compliance.
+#[derive(Clone, Debug, Default)]
+pub struct Slots {
+    /// Active node indices (of the grain's solver).
+    pub nodes: Vec<usize>,
+    /// `[K_eff]^{-1}` on the slot DOFs (2 per slot), column-major, `2s × 2s`.
+    pub compliance: Vec<f64>,
+    /// Predicted displacement increment at the slot DOFs for the current forces.
+    pub disp: Vec<f64>,
+}
+
+impl Slots {
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    fn dim(&self) -> usize {
+        2 * self.nodes.len()
+    }
+
+    /// The 2×2 block of the compliance between slots `s` and `r`.
+    fn block(&self, s: usize, r: usize) -> Matrix2<f64> {
+        let n = self.dim();
+        let c = &self.compliance;
+        Matrix2::new(
+            c[2 * r * n + 2 * s],
+            c[(2 * r + 1) * n + 2 * s],
+            c[2 * r * n + 2 * s + 1],
+            c[(2 * r + 1) * n + 2 * s + 1],
+        )
+    }
+
+    fn disp(&self, s: usize) -> Vector2<f64> {
+        Vector2::new(self.disp[2 * s], self.disp[2 * s + 1])
+    }
+
+    /// `disp += C[:, slot r] f`.
+    fn push(&mut self, r: usize, f: Vector2<f64>) {
+        let n = self.dim();
+        let (cx, cy) = (2 * r * n, (2 * r + 1) * n);
+        for k in 0..n {
+            self.disp[k] += self.compliance[cx + k] * f.x + self.compliance[cy + k] * f.y;
+        }
+    }
+}
+
+/// Smallest cosine between one grain's spatial mass gradient and minus the other's for a
+/// node to be a contact candidate (60°).
+pub const FACING: f64 = 0.5;
+
+/// Common-grid id of node `id` of `window` (a window of `grid`).
+pub fn global_node(grid: &Grid, window: &Grid, id: usize) -> usize {
+    let off = (window.origin - grid.origin) / grid.h;
+    let (i0, j0) = (off.x.round() as usize, off.y.round() as usize);
+    (id / window.nx + j0) * grid.nx + id % window.nx + i0
+}
+
+/// Reach of point `p` along `-dir` (toward a partner on the `-dir` side): the support of
+/// the ellipse with the point's axis reaches as half-axes. (The rectangle's support
+/// `|n_x| l_x + |n_y| l_y` counts the corners of the staircase: two disks seeded touching
+/// along a 60° line showed a gap of -0.29 h.)
+fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
+    let rx = points.reach(p, usize::from(dir.x < 0.0));
+    let ry = points.reach(p, 2 + usize::from(dir.y < 0.0));
+    ((dir.x * rx).powi(2) + (dir.y * ry).powi(2)).sqrt()
+}
+
+/// Finds this step's node contacts (grain pairs first, ordered by node, then walls by grain)
+/// and numbers each grain's contact slots. `friction` is the inter-grain coefficient;
+/// walls carry their own. `alert` drops candidates with a larger gap.
+#[allow(clippy::too_many_arguments)]
+pub fn detect(
+    grid: &Grid,
+    grains: &[GrainView],
+    walls: &[Wall],
+    friction: f64,
+    dt: f64,
+    alert: f64,
+    out: &mut Vec<NodeContact>,
+    slots: &mut Vec<Slots>,
+) {
+    out.clear();
+    // Every (common node, grain, active index), sorted by node then grain.
+    let mut entries: Vec<(usize, usize, usize)> = Vec::new();
+    for (g, v) in grains.iter().enumerate() {
+        for (i, &id) in v.solver.nodes().iter().enumerate() {
+            entries.push((global_node(grid, v.window, id), g, i));
+        }
+    }
+    entries.sort_unstable();
+    // Shared nodes: flag them per grain, and list the points that reach them.
+    let mut shared: Vec<Vec<bool>> = grains
+        .iter()
+        .map(|v| vec![false; v.solver.nodes().len()])
+        .collect();
+    let mut pairs = Vec::new();
+    let mut start = 0;
+    while start < entries.len() {
+        let mut end = start + 1;
+        while end < entries.len() && entries[end].0 == entries[start].0 {
+            end += 1;
+        }
+        for x in start..end {
+            for y in x + 1..end {
+                let ((node, ga, ia), (_, gb, ib)) = (entries[x], entries[y]);
+                shared[ga][ia] = true;
+                shared[gb][ib] = true;
+                pairs.push((node, ga, ia, gb, ib));
+            }
+        }
+        start = end;
+    }
+    let reached: Vec<Vec<Vec<usize>>> = grains
+        .iter()
+        .zip(&shared)
+        .map(|(v, flags)| {
+            let mut lists = vec![Vec::new(); flags.len()];
+            if flags.iter().any(|&f| f) {
+                for p in 0..v.points.len() {
+                    for &i in v.solver.point_nodes(p) {
+                        if flags[i] {
+                            lists[i].push(p);
+                        }
+                    }
+                }
+            }
+            lists
+        })
+        .collect();
+    for &(node, ga, ia, gb, ib) in &pairs {
+        // Normal from grain gb into grain ga. The solver's `Σ m_p ∇S_ip` is taken with
+        // respect to the point, so it is minus the spatial mass gradient at the node.
+        let (ma, mb) = (
+            -grains[ga].solver.mass_gradient()[ia],
+            -grains[gb].solver.mass_gradient()[ib],
+        );
+        // The two surfaces must face each other: spatial gradients within 60° of opposite.
+        // (Beside a contact both gradients point along the common tangent; the pair's
+        // normal then lies in the surfaces, the clouds' projections overlap by cells and the
+        // node would lock their sliding.)
+        if ma.dot(&-mb) < FACING * ma.norm() * mb.norm() {
+            continue;
+        }
+        let d = ma - mb;
+        let len = d.norm();
+        if len.is_nan() || len <= 0.0 {
+            continue;
+        }
+        let n = d / len;
+        // Only the points within half a cell of the node across the normal: over the
+        // whole support a tilted normal adds the clouds' lateral spread to the gap.
+        let (t, xi) = (Vector2::new(-n.y, n.x), grid.node_position(node));
+        let near = |x: &Vector2<f64>| (x - xi).dot(&t).abs() <= 0.5 * grid.h;
+        let lo = reached[ga][ia]
+            .iter()
+            .filter(|&&p| near(&grains[ga].points.x[p]))
+            .map(|&p| grains[ga].points.x[p].dot(&n) - reach_against(grains[ga].points, p, &n))
+            .fold(f64::INFINITY, f64::min);
+        let hi = reached[gb][ib]
+            .iter()
+            .filter(|&&q| near(&grains[gb].points.x[q]))
+            .map(|&q| grains[gb].points.x[q].dot(&n) + reach_against(grains[gb].points, q, &-n))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let gap = lo - hi;
+        if gap.is_finite() && gap < alert {
+            out.push(NodeContact {
+                node,
+                a: ga,
+                slot_a: ia,
+                partner: Partner::Grain(gb),
+                slot_b: ib,
+                normal: n,
+                gap,
+                wall_disp: Vector2::zeros(),
+                friction,
+                force_n: 0.0,
+                force_t: 0.0,
+            });
+        }
+    }
+    // Walls, with the single grain's detection.
+    let mut found = Vec::new();
+    let mut scratch = Vec::new();
+    for (g, v) in grains.iter().enumerate() {
+        let pos: Vec<Vector2<f64>> = v
+            .solver
+            .nodes()
+            .iter()
+            .map(|&id| v.window.node_position(id))
+            .collect();
+        plate::detect(
+            walls,
+            v.window,
+            v.points,
+            &pos,
+            |p| v.solver.point_nodes(p),
+            dt,
+            &mut scratch,
+            &mut found,
+        );
+        for c in found.iter().filter(|c| c.gap < alert) {
+            let w = &walls[c.wall];
+            out.push(NodeContact {
+                node: global_node(grid, v.window, v.solver.nodes()[c.node]),
+                a: g,
+                slot_a: c.node,
+                partner: Partner::Wall(c.wall),
+                slot_b: 0,
+                normal: w.normal,
+                gap: c.gap,
+                wall_disp: w.velocity * dt,
+                friction: w.friction,
+                force_n: 0.0,
+                force_t: 0.0,
+            });
+        }
+    }
+    // Slots: active indices → slot numbers, per grain.
+    slots.clear();
+    slots.resize(grains.len(), Slots::default());
+    let mut map: Vec<Vec<usize>> = grains
+        .iter()
+        .map(|v| vec![usize::MAX; v.solver.nodes().len()])
+        .collect();
+    let mut slot_of = |g: usize, i: usize, slots: &mut Vec<Slots>| {
+        if map[g][i] == usize::MAX {
+            map[g][i] = slots[g].nodes.len();
+            slots[g].nodes.push(i);
+        }
+        map[g][i]
+    };
+    for c in out.iter_mut() {
+        c.slot_a = slot_of(c.a, c.slot_a, slots);
+        if let Partner::Grain(b) = c.partner {
+            c.slot_b = slot_of(b, c.slot_b, slots);
+        }
+    }
+}
+
+/// Sets the contacts' forces from the previous step's, matched by `NodeContact::key`
+/// (`previous` sorted by key).
+pub fn warm_start(contacts: &mut [NodeContact], previous: &[((usize, usize, Partner), f64, f64)]) {
+    for c in contacts.iter_mut() {
+        if let Ok(k) = previous.binary_search_by(|e| e.0.cmp(&c.key())) {
+            (c.force_n, c.force_t) = (previous[k].1, previous[k].2);
+        }
+    }
+}
+
+/// The contacts carrying a force, for the next warm start (sorted by key).
+pub fn remember(contacts: &[NodeContact], out: &mut Vec<((usize, usize, Partner), f64, f64)>) {
+    out.clear();
+    out.extend(
+        contacts
+            .iter()
+            .filter(|c| c.force_n > 0.0)
+            .map(|c| (c.key(), c.force_n, c.force_t)),
+    );
+    out.sort_unstable_by_key(|x| x.0);
+}
+
+/// NLGS stopping rule.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NlgsParams {
+    /// Converged when a sweep changes the forces by less than `tol Σ|f|`.
+    pub tol: f64,
+    pub max_sweeps: usize,
+}
+
+impl Default for NlgsParams {
+    fn default() -> Self {
+        NlgsParams {
+            tol: 1e-6,
+            max_sweeps: 20_000,
+        }
+    }
+}
+
+/// Adds the current contact forces into `slots[g].disp` (`disp = free + C f`); call once
+/// after the slots' free displacements and compliances are set.
+pub fn load_slots(contacts: &[NodeContact], slots: &mut [Slots]) {
+    for c in contacts {
+        let f = c.force();
+        slots[c.a].push(c.slot_a, f);
+        if let Partner::Grain(b) = c.partner {
+            slots[b].push(c.slot_b, -f);
+        }
+    }
+}
+
+/// Solves the contact laws for the displacements `slots[g].disp` (loaded with the current
+/// forces, see `load_slots`). `floor` is a force below which `Σ|f|` counts as zero.
+/// Returns the sweeps done and whether they converged.
+pub fn nlgs(
+    contacts: &mut [NodeContact],
+    slots: &mut [Slots],
+    params: NlgsParams,
+    floor: f64,
+) -> (usize, bool) {
+    if contacts.is_empty() {
+        return (0, true);
+    }
+    for sweep in 1..=params.max_sweeps {
+        let (mut change, mut total) = (0.0, 0.0);
+        for c in contacts.iter_mut() {
+            let (n, t) = (c.normal, c.tangent());
+            let (ua, mut w) = (
+                slots[c.a].disp(c.slot_a),
+                slots[c.a].block(c.slot_a, c.slot_a),
+            );
+            let ub = match c.partner {
+                Partner::Grain(b) => {
+                    w += slots[b].block(c.slot_b, c.slot_b);
+                    slots[b].disp(c.slot_b)
+                }
+                Partner::Wall(_) => c.wall_disp,
+            };
+            let d = ua - ub;
+            let (wn, wt, wtn) = (n.dot(&(w * n)), t.dot(&(w * t)), t.dot(&(w * n)));
+            let fn_new = (c.force_n - (d.dot(&n) + c.gap.max(0.0)) / wn).max(0.0);
+            let ft_new = if c.friction > 0.0 {
+                let slip = d.dot(&t) + wtn * (fn_new - c.force_n);
+                let bound = c.friction * fn_new;
+                (c.force_t - slip / wt).clamp(-bound, bound)
+            } else {
+                0.0
+            };
+            let df = n * (fn_new - c.force_n) + t * (ft_new - c.force_t);
+            (c.force_n, c.force_t) = (fn_new, ft_new);
+            change += df.x.abs() + df.y.abs();
+            total += fn_new.abs() + ft_new.abs();
+            if df != Vector2::zeros() {
+                slots[c.a].push(c.slot_a, df);
+                if let Partner::Grain(b) = c.partner {
+                    slots[b].push(c.slot_b, -df);
+                }
+            }
+        }
+        if change <= params.tol * total.max(floor) {
+            return (sweep, true);
+        }
+    }
+    (params.max_sweeps, false)
+}
+
+/// Adds each contact's force into its grains' nodal force vectors `fc[g]` (2 per active node).
+pub fn scatter(contacts: &[NodeContact], slots: &[Slots], fc: &mut [Vec<f64>]) {
+    for c in contacts {
+        let f = c.force();
+        let i = slots[c.a].nodes[c.slot_a];
+        fc[c.a][2 * i] += f.x;
+        fc[c.a][2 * i + 1] += f.y;
+        if let Partner::Grain(b) = c.partner {
+            let j = slots[b].nodes[c.slot_b];
+            fc[b][2 * j] -= f.x;
+            fc[b][2 * j + 1] -= f.y;
+        }
+    }
+}

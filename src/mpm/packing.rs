@@ -1,0 +1,672 @@
+//! Many MPM grains in a box: each grain its own nodal field on the common grid, coupled
+//! through node contacts solved by contact dynamics (`super::node_contact`, METHODS §4).
+//!
+//! One step, condensed-Delassus scheme (METHODS §4.4B), all grains together:
+//! 1. P2G of every grain on its window of the common grid, Newmark predictor (parallel);
+//!    node contacts detected at the start-of-step configuration and warm-started.
+//! 2. Coupling (Newton) iteration `k`: every grain evaluates its residual without contact
+//!    forces `R^α(u)` (parallel). Converged when, for every grain,
+//!    `‖R^α + f_c^α‖ <= tol_residual · max(‖f_int‖, ‖M a‖, ‖f_c‖)` and `k >= 1` (so the
+//!    contact forces have been solved for at least once this step).
+//! 3. Otherwise each grain whose residual is not converged factorises its effective
+//!    stiffness; every grain with contact slots solves for its free increment
+//!    `K^{-1} R` and (after a new factorisation) the condensed compliance `[K^{-1}]_cc`
+//!    by unit loads at its slot DOFs (parallel).
+//! 4. NLGS over all contacts on the linearised relation `u_c = u_c^k + K^{-1}(R + f_c)`.
+//! 5. Each grain takes `u += K^{-1}(R + f_c)` with the new forces (parallel).
+//!
+//! With the small-strain law the step is linear apart from contact, so one iteration
+//! solves it and the second only confirms the residual; grains without contact and without
+//! load converge at `k = 0` and are never factorised. Grains far from convergence get a
+//! fresh factorisation per iteration (full Newton), the others keep theirs (modified Newton).
+//! The contact forces are exact for the factorised operator, not the mass-only `W` of the
+//! staggered scheme A, whose contraction `ρ = (ωΔt/2)²/(1+(ωΔt/2)²)` is close to 1 at
+//! these steps (`ωΔt ≈ 30`).
+//!
+//! A step whose iteration fails is redone as two half steps (at most `MAX_HALVINGS`).
+//!
+//! # Decisions the paper leaves open (METHODS §7.3, §7.5)
+//! * **Coupling**: the condensed-Delassus scheme B above, not the staggered scheme A.
+//!   Newton's residual tolerance is the single grain's (`NewtonParams`, 1e-6 of the force
+//!   scale); from the Newmark predictor the residual falls like 5e-2, 1e-3, 1e-5, 1e-7, so a
+//!   loaded step takes 4 iterations (the wall travels 0.05 h_g per step, and the first
+//!   linearisation errs by about that fraction). NLGS tolerance 1e-6 (`NlgsParams`); the
+//!   forces agree with those at 1e-10 to 1e-3 (tested).
+//! * **Grids**: one common grid; each grain's "proper mesh" is the window of it covering
+//!   its points plus 3 cells, so the meshes coincide (METHODS §4.1). The cell is
+//!   `h_g = 2 Δr` with `Δr = resolution × mean grain radius` (the packing's grid is not
+//!   given); every grain is seeded 2×2 per cell on the same lattice and its point areas
+//!   rescaled to `π R²` (as for the single grain).
+//! * **Contact nodes, normal, gap, law**: see `super::node_contact` (nodes where two grains
+//!   have non-light mass, one contact per pair; mass-gradient normals; point-cloud gap in a
+//!   strip of one cell; Signorini on the end-of-step gap with overlaps left alone; Coulomb
+//!   on the slip increment of the step; alert distance `h_g`). Walls: infinite mass,
+//!   frictionless by default, detected as for the single grain's plates.
+//! * **Warm start** of the node forces by (common node, grain, partner).
+//! * **Start**: grains at rest in the unjammed layout, no quasi-static velocity field (they
+//!   carry no load until the top wall or a neighbour reaches them).
+//! * **Known limit**: node contact holds nodes, not points, so the point clouds can overlap
+//!   where a grain's surface is coarse: 0.06–0.08 h_g for two grains of R = 5 cells, up to
+//!   0.44 h_g in the wedge of three grains of R = 3.3 cells at 5 % strain (tests). Seeded
+//!   disks that touch in the deposit already show −0.2 to −0.3 h_g.
+//! * **Open problem** (`pipelines/mpm-packing-small.yaml`, 16 grains, Δr/R = 0.12): up to
+//!   ε ≈ 0.2 Φ follows Φ0 e^ε with Σ v_p within 1 % and overlaps below 0.3 h_g; beyond,
+//!   without friction Σ v_p *grows* (+13 % at ε = 0.27, +18 % at 0.35) while the clouds
+//!   overlap by up to 4 h_g and the coupling takes 26–28 iterations per step; with
+//!   μ = 0.5 Σ v_p stays within 0.7 % but the overlap reaches 1.8 h_g at ε = 0.35. Not
+//!   resolved; suspects: nodes shared by several grains constraining along inconsistent
+//!   normals, and the overlap never being pushed back (`max(g, 0)`). Tried: removing 30 %
+//!   of an overlap (capped at 0.5 h_g) per step; on 12 grains with μ = 0.5 to ε = 0.3 the
+//!   worst overlap fell from 1.34 to 0.60 h_g but Σ v_p grew by 1.3 % (pushed-apart grains
+//!   stretch), σ rose 70 % and the coupling took 11.8 instead of 8 iterations per step;
+//!   not kept.
+//!
+//! # Cost (measured, one thread, 30 grains from Φ0 = 0.672 to ε = 0.02, μ = 0.5, Z ≈ 2)
+//! | Δr/R | points | steps | CPU s/step | ms per grain-step | peak RSS |
+//! | --- | --- | --- | --- | --- | --- |
+//! | 0.1 | 9,652 | 27 | 0.082 | 2.7 | 53 MB |
+//! | 0.05 | 38,589 | 53 | 0.37 | 12.3 | 187 MB |
+//! | 0.029 | 114,724 | 90 | 1.46 | 48.6 | 555 MB |
+//!
+//! About 4.5 coupling iterations per step at this stage; later in the compaction it rises
+//! to 9–28 (small pipeline), so the figures above are lower bounds. Profile: NLGS 22 %
+//! (sequential), triangular solves 15 %, assembly 19 %. The paper's scene (300 grains,
+//! L ≈ h0 ≈ 36 mm, ε = 0.5: 14 mm of wall travel at 0.05 h_g per step) would need, per
+//! case on one core, ≥ 21 h at Δr/R = 0.029 (5,300 steps; ~5.5 GB), ≥ 3.1 h at 0.05
+//! (3,100 steps; ~1.9 GB) and ≥ 21 min at 0.1 (1,540 steps; ~0.5 GB); two cores give at
+//! most 1.6× (the NLGS is sequential). Only Δr/R ≈ 0.1 fits memory and comes near the
+//! time budget, and even it exceeds 60 min for the two MPM cases once the later
+//! iteration counts are included. The small pipeline uses 0.12.
+
+use super::contact::Wall;
+use super::error::MpmError;
+use super::grid::Grid;
+use super::material::Material;
+use super::node_contact::{self as nc, GrainView, NlgsParams, NodeContact, Partner, Slots};
+use super::points::Points;
+use super::solve::{Solver, SolverParams};
+use nalgebra::Vector2;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Most halvings of a failed step.
+pub const MAX_HALVINGS: u32 = 3;
+
+/// Parameters of a packing compaction (SI units).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PackingParams {
+    pub material: Material,
+    pub solver: SolverParams,
+    /// Cell size of the common grid `h_g` (m); points are seeded 2×2 per cell.
+    pub cell: f64,
+    /// Inter-grain Coulomb friction.
+    pub friction: f64,
+    /// Grain–wall friction (the paper: frictionless walls).
+    pub wall_friction: f64,
+    /// Gravity along -y (m/s²).
+    pub gravity: f64,
+    /// Top wall speed, moving down (m/s).
+    pub wall_velocity: f64,
+    /// Top wall travel per step over `h_g` (METHODS §6: 0.05–0.1).
+    pub travel_per_step: f64,
+    pub nlgs: NlgsParams,
+}
+
+/// What one step did, for the time series.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepReport {
+    /// Coupling (Newton) iterations, summed over sub-steps.
+    pub iterations: usize,
+    /// Factorisations over all grains.
+    pub factorisations: usize,
+    pub sweeps: usize,
+    /// Sub-steps whose NLGS hit its sweep limit.
+    pub nlgs_unconverged: usize,
+    pub halvings: u64,
+    /// Node contacts carrying a force at the end of the step.
+    pub active: usize,
+    /// Most negative point-cloud gap between two grains at a contact node (m, <= 0).
+    pub min_gap: f64,
+    /// Nodes where three or more grains meet (contacts of two or more grain pairs).
+    pub multi_grain_nodes: usize,
+}
+
+/// A node contact at the end of the last step (for Z and the force network).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ContactRecord {
+    pub position: Vector2<f64>,
+    pub normal: Vector2<f64>,
+    pub grain: usize,
+    pub partner: Partner,
+    /// Normal and tangential force on `grain` (N/m).
+    pub force_n: f64,
+    pub force_t: f64,
+}
+
+/// Per-grain solver workspace (never checkpointed).
+#[derive(Default)]
+struct GrainWork {
+    solver: Solver,
+    window: Grid,
+    /// Contact forces at the active nodes.
+    fc: Vec<f64>,
+    rhs: Vec<f64>,
+    scale: f64,
+    rel: f64,
+    factored: bool,
+    /// Whether this iteration solves for the grain's increment.
+    updating: bool,
+}
+
+#[derive(Default)]
+struct Workspace {
+    grains: Vec<GrainWork>,
+    contacts: Vec<NodeContact>,
+    slots: Vec<Slots>,
+    backup: Vec<Points>,
+}
+
+impl Clone for Workspace {
+    fn clone(&self) -> Self {
+        Workspace::default()
+    }
+}
+
+impl std::fmt::Debug for Workspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Workspace")
+    }
+}
+
+/// A resumable packing compaction: serialise it between steps to checkpoint.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Packing {
+    pub params: PackingParams,
+    /// The common grid, covering the box with a margin of 4 cells.
+    pub grid: Grid,
+    pub width: f64,
+    pub h0: f64,
+    pub grains: Vec<Points>,
+    /// Floor, left, right and top walls.
+    pub walls: Vec<Wall>,
+    pub time: f64,
+    pub dt: f64,
+    pub steps: u64,
+    /// Forces of the last step's loaded contacts, for the warm start.
+    warm: Vec<((usize, usize, Partner), f64, f64)>,
+    /// The last step's contacts with a force.
+    pub contacts: Vec<ContactRecord>,
+    #[serde(skip)]
+    workspace: Workspace,
+}
+
+/// Index of the top wall in `Packing::walls`.
+pub const TOP: usize = 3;
+
+impl Packing {
+    /// Seeds one disk grain per `(centre, radius)` in the box `[0, width] × [0, h0]`.
+    pub fn new(
+        params: PackingParams,
+        centres: &[Vector2<f64>],
+        radii: &[f64],
+        width: f64,
+        h0: f64,
+    ) -> Result<Packing, MpmError> {
+        let h = params.cell;
+        if !(h > 0.0 && width > 0.0 && h0 > 0.0 && params.wall_velocity > 0.0) {
+            return Err(MpmError::InvalidParameter {
+                name: "packing",
+                reason: "cell, box and wall velocity must be > 0".into(),
+            });
+        }
+        let grid = Grid {
+            origin: Vector2::new(-4.0 * h, -4.0 * h),
+            h,
+            nx: (width / h).ceil() as usize + 9,
+            ny: (h0 / h).ceil() as usize + 9,
+        };
+        let mut grains = Vec::with_capacity(centres.len());
+        for (c, &r) in centres.iter().zip(radii) {
+            let window = window(&grid, *c - Vector2::repeat(r), *c + Vector2::repeat(r));
+            let pts = Points::seed_disk(&window, *c, r, params.material.density);
+            if pts.is_empty() {
+                return Err(MpmError::InvalidParameter {
+                    name: "cell",
+                    reason: format!("a grain of radius {r:e} m gets no point at h = {h:e} m"),
+                });
+            }
+            grains.push(pts);
+        }
+        let mut walls = vec![
+            Wall::new(Vector2::zeros(), Vector2::new(0.0, 1.0), Vector2::zeros()),
+            Wall::new(Vector2::zeros(), Vector2::new(1.0, 0.0), Vector2::zeros()),
+            Wall::new(
+                Vector2::new(width, 0.0),
+                Vector2::new(-1.0, 0.0),
+                Vector2::zeros(),
+            ),
+            Wall::new(
+                Vector2::new(0.0, h0),
+                Vector2::new(0.0, -1.0),
+                Vector2::new(0.0, -params.wall_velocity),
+            ),
+        ];
+        for w in walls.iter_mut() {
+            w.friction = params.wall_friction;
+        }
+        Ok(Packing {
+            dt: params.travel_per_step * h / params.wall_velocity,
+            params,
+            grid,
+            width,
+            h0,
+            grains,
+            walls,
+            time: 0.0,
+            steps: 0,
+            warm: Vec::new(),
+            contacts: Vec::new(),
+            workspace: Workspace::default(),
+        })
+    }
+
+    /// Box height `h` (m).
+    pub fn height(&self) -> f64 {
+        self.walls[TOP].origin.y - self.walls[0].origin.y
+    }
+
+    /// `ε = ln(h0/h)`.
+    pub fn strain(&self) -> f64 {
+        (self.h0 / self.height()).ln()
+    }
+
+    /// `Φ = Σ v_p / (L h)`.
+    pub fn phi(&self) -> f64 {
+        let area: f64 = self.grains.iter().flat_map(|g| g.vol.iter()).sum();
+        area / (self.width * self.height())
+    }
+
+    pub fn total_mass(&self) -> f64 {
+        self.grains.iter().map(Points::total_mass).sum()
+    }
+
+    pub fn momentum(&self) -> Vector2<f64> {
+        self.grains.iter().map(Points::momentum).sum()
+    }
+
+    pub fn kinetic_energy(&self) -> f64 {
+        self.grains.iter().map(Points::kinetic_energy).sum()
+    }
+
+    /// Elastic energy `Σ v_p w(σ_p)`, with the linear-elastic complementary energy density
+    /// including `σzz` (exact for the small-strain law, an estimate for neo-Hookean) (J/m).
+    pub fn elastic_energy(&self) -> f64 {
+        let (e, nu) = (self.params.material.young, self.params.material.poisson);
+        self.grains
+            .iter()
+            .flat_map(|g| g.stress.iter().zip(&g.vol))
+            .map(|(s, v)| {
+                let sq = s.xx * s.xx + s.yy * s.yy + s.zz * s.zz;
+                let cross = s.xx * s.yy + s.yy * s.zz + s.zz * s.xx;
+                v * ((sq - 2.0 * nu * cross) / (2.0 * e) + (1.0 + nu) / e * s.xy * s.xy)
+            })
+            .sum()
+    }
+
+    /// Advances one time step (halving it on a failed solve).
+    pub fn step(&mut self) -> Result<StepReport, MpmError> {
+        let step = self.steps;
+        let mut report = StepReport::default();
+        self.advance(self.dt, step, 0, &mut report)?;
+        self.time += self.dt;
+        self.steps += 1;
+        if !self.kinetic_energy().is_finite() {
+            return Err(MpmError::NonFinite {
+                step,
+                quantity: "kinetic energy",
+            });
+        }
+        Ok(report)
+    }
+
+    fn advance(
+        &mut self,
+        dt: f64,
+        step: u64,
+        depth: u32,
+        report: &mut StepReport,
+    ) -> Result<(), MpmError> {
+        let mut ws = std::mem::take(&mut self.workspace);
+        ws.backup.clone_from(&self.grains);
+        let walls = self.walls.clone();
+        let warm = self.warm.clone();
+        let result = self.solve_step(&mut ws, dt, step, report);
+        let failed = matches!(
+            result,
+            Err(MpmError::NotConverged { .. }
+                | MpmError::Inverted { .. }
+                | MpmError::LinearSolve { .. })
+        );
+        if failed && depth < MAX_HALVINGS {
+            std::mem::swap(&mut self.grains, &mut ws.backup);
+            self.walls = walls;
+            self.warm = warm;
+            self.workspace = ws;
+            report.halvings += 1;
+            self.advance(0.5 * dt, step, depth + 1, report)?;
+            return self.advance(0.5 * dt, step, depth + 1, report);
+        }
+        self.workspace = ws;
+        result
+    }
+
+    /// One step of `dt` by the scheme of the module doc.
+    fn solve_step(
+        &mut self,
+        ws: &mut Workspace,
+        dt: f64,
+        step: u64,
+        report: &mut StepReport,
+    ) -> Result<(), MpmError> {
+        let p = &self.params;
+        let (grid, grains) = (&self.grid, &self.grains);
+        ws.grains.resize_with(grains.len(), GrainWork::default);
+        let gravity = Vector2::new(0.0, -p.gravity);
+        ws.grains
+            .par_iter_mut()
+            .zip(grains.par_iter())
+            .try_for_each(|(w, pts)| {
+                let (lo, hi) = bounds(pts);
+                w.window = window(grid, lo, hi);
+                w.solver.gravity = gravity;
+                w.factored = false;
+                w.solver.begin(&p.solver, &w.window, pts, dt, step)
+            })?;
+        {
+            let views: Vec<GrainView> = ws
+                .grains
+                .iter()
+                .zip(grains)
+                .map(|(w, pts)| GrainView {
+                    solver: &w.solver,
+                    points: pts,
+                    window: &w.window,
+                })
+                .collect();
+            nc::detect(
+                grid,
+                &views,
+                &self.walls,
+                p.friction,
+                dt,
+                grid.h,
+                &mut ws.contacts,
+                &mut ws.slots,
+            );
+        }
+        nc::warm_start(&mut ws.contacts, &self.warm);
+        report.min_gap = ws
+            .contacts
+            .iter()
+            .filter(|c| matches!(c.partner, Partner::Grain(_)))
+            .fold(report.min_gap, |m, c| m.min(c.gap));
+        let mut pair_nodes: Vec<usize> = ws
+            .contacts
+            .iter()
+            .filter(|c| matches!(c.partner, Partner::Grain(_)))
+            .map(|c| c.node)
+            .collect();
+        pair_nodes.sort_unstable();
+        report.multi_grain_nodes = pair_nodes
+            .chunk_by(|a, b| a == b)
+            .filter(|run| run.len() > 1)
+            .count();
+
+        let tol = p.solver.newton.tol_residual;
+        let floor = p.material.young * grid.h * 1e-6;
+        let mut converged = false;
+        let mut worst = f64::INFINITY;
+        for it in 0..=p.solver.newton.max_iterations {
+            ws.grains
+                .par_iter_mut()
+                .zip(grains.par_iter())
+                .try_for_each(|(w, pts)| -> Result<(), MpmError> {
+                    w.scale = w
+                        .solver
+                        .evaluate_residual(&p.solver, &p.material, pts, dt, step)?;
+                    w.fc.clear();
+                    w.fc.resize(w.solver.residual_vector().len(), 0.0);
+                    Ok(())
+                })?;
+            {
+                let mut fc: Vec<Vec<f64>> = ws
+                    .grains
+                    .iter_mut()
+                    .map(|w| std::mem::take(&mut w.fc))
+                    .collect();
+                nc::scatter(&ws.contacts, &ws.slots, &mut fc);
+                for (w, f) in ws.grains.iter_mut().zip(fc) {
+                    w.fc = f;
+                }
+            }
+            worst = 0.0;
+            for w in ws.grains.iter_mut() {
+                let r = w.solver.residual_vector();
+                let (mut rs, mut fs) = (0.0, 0.0);
+                for (a, b) in r.iter().zip(&w.fc) {
+                    rs += (a + b) * (a + b);
+                    fs += b * b;
+                }
+                w.rel = rs.sqrt() / w.scale.max(fs.sqrt()).max(floor);
+                worst = worst.max(w.rel);
+            }
+            if worst <= tol && (it > 0 || ws.contacts.is_empty()) {
+                report.iterations += it;
+                converged = true;
+                break;
+            }
+            if it == p.solver.newton.max_iterations {
+                break;
+            }
+            // Free increments and compliances.
+            let factorisations = ws
+                .grains
+                .par_iter_mut()
+                .zip(ws.slots.par_iter_mut())
+                .zip(grains.par_iter())
+                .map(|((w, s), pts)| -> Result<usize, MpmError> {
+                    grain_free(w, s, pts, p, dt, step, tol)
+                })
+                .collect::<Result<Vec<usize>, MpmError>>()?;
+            report.factorisations += factorisations.iter().sum::<usize>();
+            nc::load_slots(&ws.contacts, &mut ws.slots);
+            let (sweeps, ok) = nc::nlgs(&mut ws.contacts, &mut ws.slots, p.nlgs, floor);
+            report.sweeps += sweeps;
+            report.nlgs_unconverged += usize::from(!ok);
+            // Update with the new forces.
+            {
+                let mut fc: Vec<Vec<f64>> = ws
+                    .grains
+                    .iter_mut()
+                    .map(|w| {
+                        let mut f = std::mem::take(&mut w.fc);
+                        f.iter_mut().for_each(|x| *x = 0.0);
+                        f
+                    })
+                    .collect();
+                nc::scatter(&ws.contacts, &ws.slots, &mut fc);
+                for (w, f) in ws.grains.iter_mut().zip(fc) {
+                    w.fc = f;
+                }
+            }
+            ws.grains
+                .par_iter_mut()
+                .try_for_each(|w| -> Result<(), MpmError> {
+                    if !w.updating {
+                        return Ok(());
+                    }
+                    w.rhs.clear();
+                    w.rhs.extend(
+                        w.solver
+                            .residual_vector()
+                            .iter()
+                            .zip(&w.fc)
+                            .map(|(r, f)| r + f),
+                    );
+                    let mut rhs = std::mem::take(&mut w.rhs);
+                    w.solver.solve(&mut rhs, 1, step)?;
+                    if rhs.iter().any(|x| !x.is_finite()) {
+                        return Err(MpmError::NonFinite {
+                            step,
+                            quantity: "displacement increment",
+                        });
+                    }
+                    w.solver.add_increment(&rhs);
+                    w.rhs = rhs;
+                    Ok(())
+                })?;
+        }
+        if !converged {
+            return Err(MpmError::NotConverged {
+                step,
+                iterations: p.solver.newton.max_iterations,
+                residual: worst,
+                active_set_changing: false,
+            });
+        }
+        let nm = p.solver.newmark;
+        ws.grains
+            .par_iter_mut()
+            .zip(self.grains.par_iter_mut())
+            .for_each(|(w, pts)| w.solver.finish(nm, pts, dt));
+        // Wall forces (force on the wall = minus the force on the grains), records.
+        for w in self.walls.iter_mut() {
+            w.force = Vector2::zeros();
+            w.contacts = 0;
+        }
+        self.contacts.clear();
+        for c in ws.contacts.iter().filter(|c| c.force_n > 0.0) {
+            if let Partner::Wall(k) = c.partner {
+                self.walls[k].force -= c.force();
+                self.walls[k].contacts += 1;
+            }
+            let w = &ws.grains[c.a];
+            let id = w.solver.nodes()[ws.slots[c.a].nodes[c.slot_a]];
+            self.contacts.push(ContactRecord {
+                position: w.window.node_position(id),
+                normal: c.normal,
+                grain: c.a,
+                partner: c.partner,
+                force_n: c.force_n,
+                force_t: c.force_t,
+            });
+        }
+        report.active = self.contacts.len();
+        nc::remember(&ws.contacts, &mut self.warm);
+        for w in self.walls.iter_mut() {
+            w.origin += w.velocity * dt;
+        }
+        Ok(())
+    }
+
+    /// Grain pairs with at least one loaded contact node, and the number of walls each
+    /// grain touches.
+    pub fn contact_pairs(&self) -> (Vec<(usize, usize)>, Vec<usize>) {
+        let mut pairs = Vec::new();
+        let mut touch: Vec<(usize, usize)> = Vec::new();
+        for c in &self.contacts {
+            match c.partner {
+                Partner::Grain(b) => pairs.push((c.grain, b)),
+                Partner::Wall(k) => touch.push((c.grain, k)),
+            }
+        }
+        touch.sort_unstable();
+        touch.dedup();
+        let mut walls = vec![0; self.grains.len()];
+        for (g, _) in touch {
+            walls[g] += 1;
+        }
+        (pairs, walls)
+    }
+}
+
+/// Factorises grain `w` if it needs it, then sets its slots' free displacement
+/// `u_c + [K^{-1} R]_c` and (after a factorisation) its compliance. Returns the number of
+/// factorisations (0 or 1).
+fn grain_free(
+    w: &mut GrainWork,
+    s: &mut Slots,
+    pts: &Points,
+    p: &PackingParams,
+    dt: f64,
+    step: u64,
+    tol: f64,
+) -> Result<usize, MpmError> {
+    let converged = w.rel <= tol;
+    w.updating = !(converged && s.is_empty());
+    if !w.updating {
+        return Ok(0);
+    }
+    let mut new = 0;
+    if !(converged && w.factored) {
+        w.solver.factorize(&p.solver, &p.material, pts, dt, step)?;
+        w.factored = true;
+        new = 1;
+    }
+    let n = w.solver.residual_vector().len();
+    let mut rhs = std::mem::take(&mut w.rhs);
+    rhs.clear();
+    rhs.extend_from_slice(w.solver.residual_vector());
+    w.solver.solve(&mut rhs, 1, step)?;
+    let u = w.solver.displacement();
+    s.disp.clear();
+    for &i in &s.nodes {
+        for c in 0..2 {
+            s.disp.push(u[2 * i + c] + rhs[2 * i + c]);
+        }
+    }
+    w.rhs = rhs;
+    if new == 1 && !s.is_empty() {
+        let m = 2 * s.len();
+        let mut cols = vec![0.0; n * m];
+        for (k, &i) in s.nodes.iter().enumerate() {
+            cols[(2 * k) * n + 2 * i] = 1.0;
+            cols[(2 * k + 1) * n + 2 * i + 1] = 1.0;
+        }
+        w.solver.solve(&mut cols, m, step)?;
+        s.compliance.clear();
+        for col in 0..m {
+            for &i in &s.nodes {
+                s.compliance.push(cols[col * n + 2 * i]);
+                s.compliance.push(cols[col * n + 2 * i + 1]);
+            }
+        }
+    }
+    Ok(new)
+}
+
+/// Bounding box of the points' centres.
+fn bounds(pts: &Points) -> (Vector2<f64>, Vector2<f64>) {
+    pts.x.iter().fold(
+        (
+            Vector2::repeat(f64::INFINITY),
+            Vector2::repeat(f64::NEG_INFINITY),
+        ),
+        |(lo, hi), x| (lo.inf(x), hi.sup(x)),
+    )
+}
+
+/// The window of `grid` covering `[lo, hi]` plus 3 cells (a B-spline stencil reaches 1.5),
+/// clipped to the grid.
+fn window(grid: &Grid, lo: Vector2<f64>, hi: Vector2<f64>) -> Grid {
+    let a = ((lo - grid.origin) / grid.h).map(|v| (v.floor() - 3.0).max(0.0) as usize);
+    let b = ((hi - grid.origin) / grid.h).map(|v| (v.ceil() + 3.0).max(0.0) as usize);
+    let (i1, j1) = (b.x.min(grid.nx - 1), b.y.min(grid.ny - 1));
+    let (i0, j0) = (a.x.min(i1), a.y.min(j1));
+    Grid {
+        origin: grid.origin + Vector2::new(i0 as f64, j0 as f64) * grid.h,
+        h: grid.h,
+        nx: i1 - i0 + 1,
+        ny: j1 - j0 + 1,
+    }
+}

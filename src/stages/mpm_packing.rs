@@ -1,0 +1,385 @@
+//! MPM packings in the pipeline. Discretise keeps the deposited disks and the grain
+//! material and grid (the points are seeded by the engine, deterministically); compact
+//! places the disks at the unjammed layout of `compact.initial_phi` (which belongs to the
+//! compact node's parameters), seeds one MPM grain per disk and runs
+//! `crate::mpm::packing::Packing` with the top wall moving down to `compact.final_strain`.
+//!
+//! Recorded every `output.every` steps (`crate::compaction::Row`): wall stresses are the
+//! means over the interval (bottom and top over `L`, sides over the current height), Z and
+//! Z* from the grain pairs with a loaded contact node at the recording step (rattlers with
+//! fewer than 2 contacts with friction, 3 without, wall contacts counted), the overlap the
+//! worst inter-grain node gap of the interval over `h_g`, and the kinetic ratio
+//! `E_k / (E_el + 1e-30 J/m)`.
+
+use super::frames::FrameLog;
+use super::prepare::Prepared;
+use crate::compaction::{
+    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row,
+};
+use crate::config::{Method, Model, Mpm, Pipeline, Shape};
+use crate::geom::V2;
+use crate::io::vtk::{Data, Frame};
+use crate::mpm::material::{Material, MaterialKind};
+use crate::mpm::node_contact::{NlgsParams, Partner};
+use crate::mpm::packing::{Packing, PackingParams, TOP};
+use crate::mpm::points::Points;
+use crate::mpm::shape::ShapeKind;
+use crate::mpm::solve::SolverParams;
+use crate::pipeline::StageCtx;
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+
+/// Top wall travel per step over the cell size when `compact.time_step` is not given
+/// (METHODS §6: 0.05–0.1 h_g).
+pub const TRAVEL_PER_STEP: f64 = 0.05;
+
+/// The disks of a deposit ready to become MPM grains.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct MpmPackingGrains {
+    pub centres: Vec<[f64; 2]>,
+    pub radii: Vec<f64>,
+    pub box_width: f64,
+    pub material: Material,
+    /// Δr/R with R the mean grain radius.
+    pub resolution: f64,
+    /// Cell size of the common grid, `h_g = 2 Δr` (m).
+    pub cell: f64,
+    pub shape: ShapeKind,
+    pub bbar: bool,
+    /// Points seeded at the deposit's positions (the compact stage reports its own count).
+    pub points: usize,
+}
+
+pub fn discretise(m: &Mpm, prep: &Prepared) -> Result<(MpmPackingGrains, String), String> {
+    let b = &prep.bodies;
+    let n = b.len();
+    if n == 0 {
+        return Err("the deposit holds no grain".into());
+    }
+    let mean_r = b.radius.iter().sum::<f64>() / n as f64;
+    // Decision (METHODS §7): one grid for all grains, sized on the mean radius.
+    let cell = 2.0 * m.resolution * mean_r;
+    let material = Material {
+        kind: match m.model {
+            Model::LinearElastic => MaterialKind::LinearElastic,
+            Model::NeoHookean => MaterialKind::NeoHookean,
+        },
+        young: m.young,
+        poisson: m.poisson,
+        density: m.density,
+    };
+    let centres: Vec<[f64; 2]> = b.pos.iter().map(|p| [p.x, p.y]).collect();
+    let mut g = MpmPackingGrains {
+        centres,
+        radii: b.radius.clone(),
+        box_width: prep.box_width,
+        material,
+        resolution: m.resolution,
+        cell,
+        shape: match m.shape {
+            Shape::Bspline => ShapeKind::BSpline2,
+            Shape::Bilinear => ShapeKind::Bilinear,
+            Shape::Gimp => ShapeKind::Gimp,
+        },
+        bbar: m.bbar,
+        points: 0,
+    };
+    let top = b
+        .pos
+        .iter()
+        .zip(&b.radius)
+        .map(|(p, r)| p.y + r)
+        .fold(0.0, f64::max);
+    let probe = packing(&g, &params(&g, 0.0, 0.0, 0.0, 1.0, None), &g.centres, top)?;
+    g.points = probe.grains.iter().map(Points::len).sum();
+    let summary = format!(
+        "{n} grains, {} material points, h_g = {:.3e} m (Δr/R = {} of the mean radius)",
+        g.points, g.cell, g.resolution
+    );
+    Ok((g, summary))
+}
+
+fn params(
+    g: &MpmPackingGrains,
+    friction: f64,
+    wall_friction: f64,
+    gravity: f64,
+    wall_velocity: f64,
+    time_step: Option<f64>,
+) -> PackingParams {
+    let solver = SolverParams {
+        shape: g.shape,
+        bbar: g.bbar,
+        ..SolverParams::default()
+    };
+    PackingParams {
+        material: g.material,
+        solver,
+        cell: g.cell,
+        friction,
+        wall_friction,
+        gravity,
+        wall_velocity,
+        travel_per_step: time_step.map_or(TRAVEL_PER_STEP, |dt| dt * wall_velocity / g.cell),
+        nlgs: NlgsParams::default(),
+    }
+}
+
+fn packing(
+    g: &MpmPackingGrains,
+    p: &PackingParams,
+    centres: &[[f64; 2]],
+    h0: f64,
+) -> Result<Packing, String> {
+    let c: Vec<Vector2<f64>> = centres.iter().map(|c| Vector2::new(c[0], c[1])).collect();
+    Packing::new(p.clone(), &c, &g.radii, g.box_width, h0).map_err(|e| e.to_string())
+}
+
+/// What a snapshot holds: everything needed to continue bit for bit.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct Running {
+    pk: Packing,
+    geometry: BoxGeometry,
+    frames: FrameLog,
+    rows: Vec<Row>,
+    figures: PackingFigures,
+    mass0: f64,
+    /// Sums over the current recording interval: wall forces (bottom, top, left, right),
+    /// coupling iterations, steps; and the worst gap.
+    forces: [f64; 4],
+    iterations: u64,
+    since: u64,
+    min_gap: f64,
+    touched_top: bool,
+}
+
+pub fn compact(
+    p: &Pipeline,
+    mu: f64,
+    g: &MpmPackingGrains,
+    ctx: &StageCtx,
+) -> Result<(PackingCompacted, String), String> {
+    let c = p.compact.as_ref().expect("planned with a compact section");
+    let mut st = match ctx.load_snapshot::<Running>() {
+        Some(st) => st,
+        None => {
+            let centres: Vec<V2> = g.centres.iter().map(|c| V2::new(c[0], c[1])).collect();
+            // MPM seeding gives Σ v_p = π R² per grain exactly: the nominal areas are Φ's
+            let area: f64 = g.radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
+            let (moved, geometry) = compaction::unjammed_layout(
+                &centres,
+                &g.radii,
+                area,
+                g.box_width,
+                c.initial_phi,
+            )?;
+            let moved: Vec<[f64; 2]> = moved.iter().map(|c| [c.x, c.y]).collect();
+            let prm = params(
+                g,
+                mu,
+                c.wall_friction,
+                c.gravity,
+                c.wall_velocity,
+                c.time_step,
+            );
+            let pk = packing(g, &prm, &moved, geometry.h0)?;
+            Running {
+                mass0: pk.total_mass(),
+                figures: PackingFigures {
+                    time_step: pk.dt,
+                    ..PackingFigures::default()
+                },
+                pk,
+                geometry,
+                frames: FrameLog::particles(),
+                rows: Vec::new(),
+                forces: [0.0; 4],
+                iterations: 0,
+                since: 0,
+                min_gap: 0.0,
+                touched_top: false,
+            }
+        }
+    };
+    let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
+    let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
+    let every = p.output.every.max(1);
+    if st.pk.steps == 0 && p.output.vtk {
+        write_frame(ctx, &mut st).map_err(io)?;
+    }
+    while st.pk.strain() < c.final_strain - 1e-12 {
+        let report = st.pk.step().map_err(|e| e.to_string())?;
+        let walls = &st.pk.walls;
+        for (k, w) in [0, TOP, 1, 2].into_iter().enumerate() {
+            st.forces[k] += walls[w].normal_force();
+        }
+        st.iterations += report.iterations as u64;
+        st.since += 1;
+        st.min_gap = st.min_gap.min(report.min_gap);
+        let f = &mut st.figures;
+        f.steps += 1;
+        f.iterations_max = f.iterations_max.max(report.iterations as u64);
+        f.unconverged_steps += u64::from(report.nlgs_unconverged > 0);
+        st.touched_top |= walls[TOP].contacts > 0;
+        let strain = st.pk.strain();
+        bar.set((strain * 1e4) as u64, format!("ε = {strain:.3}"));
+        let steps = st.pk.steps;
+        if steps % every == 0 {
+            record(&mut st, mu);
+            if p.output.vtk {
+                write_frame(ctx, &mut st).map_err(io)?;
+            }
+        }
+        if p.output.snapshot_every > 0 && steps % p.output.snapshot_every == 0 {
+            ctx.save_snapshot(&st).map_err(io)?;
+        }
+        if ctx.interrupted() {
+            ctx.save_snapshot(&st).map_err(io)?;
+            return Err(crate::pipeline::INTERRUPTED.into());
+        }
+    }
+    if st.since > 0 {
+        record(&mut st, mu);
+        if p.output.vtk {
+            write_frame(ctx, &mut st).map_err(io)?;
+        }
+    }
+    bar.finish();
+    ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
+        .map_err(io)?;
+    let f = &mut st.figures;
+    let steps = f.steps.max(1);
+    f.iterations_mean =
+        st.rows.iter().map(|r| r.iterations).sum::<f64>() / st.rows.len().max(1) as f64;
+    f.area_change = (st.pk.total_mass() - st.mass0).abs() / st.mass0;
+    let last = st.rows.last().cloned().unwrap_or_default();
+    let summary = format!(
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.2} h_g",
+        st.pk.grains.len(),
+        st.pk.grains.iter().map(Points::len).sum::<usize>(),
+        steps,
+        st.pk.dt,
+        f.iterations_mean,
+        last.strain,
+        last.phi,
+        last.z,
+        last.sigma,
+        f.overlap_max
+    );
+    let h = st.pk.grid.h;
+    let particles = st
+        .pk
+        .grains
+        .iter()
+        .enumerate()
+        .flat_map(|(k, gr)| {
+            gr.x.iter().map(move |x| Particle {
+                pos: [x.x, x.y],
+                size: gr.half_size,
+                grain: k as u32,
+            })
+        })
+        .collect();
+    let network = st
+        .pk
+        .contacts
+        .iter()
+        .map(|c| {
+            let (a, b) = (
+                c.position - c.normal * (0.5 * h),
+                c.position + c.normal * (0.5 * h),
+            );
+            ForceLine {
+                a: [a.x, a.y],
+                b: [b.x, b.y],
+                force: c.force_n,
+                between_grains: matches!(c.partner, Partner::Grain(_)),
+            }
+        })
+        .collect();
+    Ok((
+        PackingCompacted {
+            method: Method::Mpm,
+            friction: mu,
+            geometry: st.geometry,
+            grains: st.pk.grains.len(),
+            rows: st.rows,
+            particles,
+            network,
+            figures: st.figures,
+        },
+        summary,
+    ))
+}
+
+/// Closes the recording interval: one row.
+fn record(st: &mut Running, mu: f64) {
+    let pk = &st.pk;
+    let n = st.since.max(1) as f64;
+    let (pairs, walls) = pk.contact_pairs();
+    let z = compaction::coordination(
+        pk.grains.len(),
+        &pairs,
+        &walls,
+        if mu > 0.0 { 2 } else { 3 },
+    );
+    let (width, height) = (pk.width, pk.height());
+    let ke = pk.kinetic_energy();
+    let row = Row {
+        time: pk.time,
+        strain: pk.strain(),
+        phi: pk.phi(),
+        z: z.z,
+        z_star: z.z_star,
+        sigma: st.forces[0] / n / width,
+        sigma_top: st.forces[1] / n / width,
+        sigma_left: st.forces[2] / n / height,
+        sigma_right: st.forces[3] / n / height,
+        grain_contacts: z.pairs,
+        rattlers: z.rattlers,
+        iterations: st.iterations as f64 / n,
+        kinetic_ratio: ke / (pk.elastic_energy() + 1e-30),
+        overlap: (-st.min_gap).max(0.0) / pk.grid.h,
+    };
+    let f = &mut st.figures;
+    f.overlap_max = f.overlap_max.max(row.overlap);
+    if st.touched_top {
+        f.kinetic_ratio_max = f.kinetic_ratio_max.max(row.kinetic_ratio);
+    }
+    st.rows.push(row);
+    (st.forces, st.iterations, st.since, st.min_gap) = ([0.0; 4], 0, 0, 0.0);
+}
+
+/// A frame of the points: `grain_id`, `volume`, `velocity`, `stress` (3x3 with σzz) and
+/// `von_mises`.
+fn write_frame(ctx: &StageCtx, st: &mut Running) -> std::io::Result<()> {
+    let gs = &st.pk.grains;
+    let points: Vec<[f64; 2]> = gs
+        .iter()
+        .flat_map(|g| g.x.iter().map(|p| [p.x, p.y]))
+        .collect();
+    let vel: Vec<[f64; 2]> = gs
+        .iter()
+        .flat_map(|g| g.v.iter().map(|v| [v.x, v.y]))
+        .collect();
+    let volume: Vec<f64> = gs.iter().flat_map(|g| g.vol.iter().copied()).collect();
+    let stress: Vec<[f64; 4]> = gs
+        .iter()
+        .flat_map(|g| g.stress.iter().map(|t| [t.xx, t.xy, t.xy, t.yy]))
+        .collect();
+    let zz: Vec<f64> = gs
+        .iter()
+        .flat_map(|g| g.stress.iter().map(|t| t.zz))
+        .collect();
+    let grain: Vec<i32> = gs
+        .iter()
+        .enumerate()
+        .flat_map(|(k, g)| std::iter::repeat_n(k as i32, g.len()))
+        .collect();
+    let frame = Frame::new(&points)
+        .with("grain_id", Data::Int(&grain))
+        .with("volume", Data::Scalar(&volume))
+        .with("velocity", Data::Vector(&vel))
+        .with("stress", Data::tensor_zz(&stress, &zz));
+    st.frames.write(&ctx.dir, st.pk.time, &frame)
+}

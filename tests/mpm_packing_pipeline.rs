@@ -1,0 +1,103 @@
+//! A small MPM packing through the pipeline (deposit, discretise, compact): the paper's
+//! trends that hold at small scale.
+
+mod common;
+
+use softgrain::compaction::PackingCompacted;
+use softgrain::config::Method;
+use softgrain::stages::StageState;
+
+/// 12 grains, μ = 0.5, to ε = 0.3, a row every 10 steps; also returns the run folder.
+fn small_packing(tag: &str) -> (PackingCompacted, std::path::PathBuf) {
+    let dir = common::temp_dir(tag);
+    let file = std::path::Path::new("pipelines/mpm-packing-small.yaml");
+    let state = common::run_to_state(
+        &dir,
+        file,
+        &[
+            "prepare.grains=12",
+            "compact.friction=0.5",
+            "compact.final_strain=0.3",
+            "output.every=10",
+        ],
+    );
+    let StageState::Packing(c) = state else {
+        panic!("compact produced another state")
+    };
+    (c, dir)
+}
+
+#[test]
+fn a_small_mpm_packing_jams_with_phi_following_the_box_and_the_grain_area() {
+    let (c, dir) = small_packing("mpm-packing-pipe");
+    assert_eq!(c.method, Method::Mpm);
+    assert_eq!(c.grains, 12);
+    let rows = &c.rows;
+    let phi0 = 0.65;
+    // mass is carried by the points: exact
+    assert_eq!(c.figures.area_change, 0.0);
+    // before any contact the grains keep their area: Φ = Φ0 e^ε (rigid side walls)
+    let free: Vec<_> = rows
+        .iter()
+        .filter(|r| r.z == 0.0 && r.sigma == 0.0 && r.sigma_top == 0.0)
+        .collect();
+    assert!(!free.is_empty());
+    for r in &free {
+        let expect = phi0 * r.strain.exp();
+        assert!(
+            (r.phi - expect).abs() < 1e-6,
+            "ε = {}: Φ = {} vs Φ0 e^ε = {expect}",
+            r.strain,
+            r.phi
+        );
+    }
+    // afterwards Σ v_p stays within the elastic volume change: σ stays below 0.4 MPa and
+    // the plane-strain bulk modulus λ + μ is 34.5 MPa, so about 1 %
+    let sigma_max = rows
+        .iter()
+        .map(|r| r.sigma.max(r.sigma_top))
+        .fold(0.0, f64::max);
+    assert!(sigma_max < 4e5, "σ reached {sigma_max}");
+    for r in rows {
+        let area_ratio = r.phi * (-r.strain).exp() / phi0;
+        assert!(
+            (area_ratio - 1.0).abs() < 0.012,
+            "ε = {}: Σ v_p / Σ V_p0 = {area_ratio}",
+            r.strain
+        );
+    }
+    let last = rows.last().unwrap();
+    assert!(
+        (last.strain - 0.3).abs() < 0.01,
+        "ended at ε = {}",
+        last.strain
+    );
+    // jammed: the grains touch each other and the stress rises with strain
+    assert!(last.z > 0.0, "Z = {}", last.z);
+    assert!(last.phi > phi0 * 1.25, "Φ = {}", last.phi);
+    let n = rows.len();
+    let mean = |rs: &[softgrain::compaction::Row]| {
+        rs.iter().map(|r| r.sigma).sum::<f64>() / rs.len() as f64
+    };
+    let (mid, end) = (mean(&rows[n / 3..2 * n / 3]), mean(&rows[2 * n / 3..]));
+    assert!(end > 2.0 * mid && end > 0.0, "σ: {mid} then {end}");
+    assert_eq!(c.figures.unconverged_steps, 0);
+    let run = dir.join("mpm-packing-small/compact/mpm-mu0.5");
+    let csv = std::fs::read_to_string(run.join("timeseries.csv")).unwrap();
+    assert!(csv.starts_with("time,strain,phi,z,sigma"));
+    assert!(run.join("series.pvd").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+#[ignore = "known failure: the point clouds overlap by 0.26 h_g from the first contacts and by 1.3 h_g at ε = 0.3 (src/mpm/packing.rs, open problem)"]
+fn a_small_mpm_packing_keeps_its_grains_apart() {
+    let (c, dir) = small_packing("mpm-packing-overlap");
+    // no interpenetration beyond a point's half-size, as for two grains
+    assert!(
+        c.figures.overlap_max < 0.25,
+        "overlap {} cells",
+        c.figures.overlap_max
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
