@@ -1,6 +1,7 @@
 //! Stages: thin glue from a config section and the upstream states to an engine call and a
 //! new state. Each stage's output is one variant of `StageState`, the checkpoint payload.
 
+pub mod analyse;
 pub mod compact;
 pub mod discretise;
 pub mod frames;
@@ -23,6 +24,8 @@ pub enum StageState {
     MpmCompacted(mpm_single::MpmCompacted),
     /// A compacted packing, either method.
     Packing(crate::compaction::PackingCompacted),
+    /// The analysis of every case (its files are under `analyse/`).
+    Analysed(analyse::Analysed),
 }
 
 impl StageState {
@@ -37,6 +40,10 @@ impl StageState {
             StageState::MpmCompacted(c) => {
                 serde_json::json!({"stats": c.stats, "small_strain": c.small_strain})
             }
+            StageState::Analysed(a) => serde_json::json!({
+                "summary": serde_json::from_str::<serde_json::Value>(&a.summary_json).unwrap_or_default(),
+                "files": a.files,
+            }),
         }
     }
 }
@@ -75,7 +82,7 @@ pub fn supported(p: &Pipeline, node: &Node) -> Result<(), String> {
                 .into(),
         ),
         Stage::Discretise | Stage::Compact => Ok(()),
-        Stage::Analyse => Err("the analyse stage is not built in this version".into()),
+        Stage::Analyse => Ok(()),
     }
 }
 
@@ -119,6 +126,14 @@ pub fn run(
         (Stage::Compact, [StageState::Mpm(g)]) => {
             let (c, summary) = mpm_single::compact(p, g, ctx)?;
             Ok((StageState::MpmCompacted(c), summary))
+        }
+        (Stage::Analyse, states) => {
+            let a = p
+                .analyse
+                .as_ref()
+                .expect("planned from the analyse section");
+            let (s, summary) = analyse::run(p, a, &analyse::inputs(ctx, states), &ctx.dir)?;
+            Ok((StageState::Analysed(s), summary))
         }
         (stage, _) => Err(format!(
             "the {} stage cannot run on this upstream state",
