@@ -1,6 +1,7 @@
 //! softgrain: soft granular materials by the bonded particle model and the implicit
 //! material point method (Nezamabadi, Nguyen, Delenne & Radjai, Granular Matter 2017).
 
+pub mod analysis;
 pub mod bench;
 pub mod bpm;
 pub mod cd;

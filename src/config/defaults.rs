@@ -44,6 +44,23 @@ pub const BPM_RELAX_STEPS: u64 = 400;
 /// (Fig. 8a). The deposit is stretched vertically to fill the box (`compaction.rs`).
 pub const INITIAL_PHI: f64 = 0.65;
 
+// ---- analyse (METHODS.md §5) ----
+/// Φ0 of Eqs. 14 and 16, where σ0 is read: the paper's consolidation point Φ ≈ 0.8.
+pub const ANALYSE_PHI0: f64 = 0.8;
+/// Φ range of the Eq. 14 fit: the paper fits "up to a packing fraction ≃ 0.98".
+pub const ANALYSE_EQ14_PHI: [f64; 2] = [0.8, 0.98];
+/// Φ range of the Eq. 16 fit: the paper's MPM data are linear "until very high" Φ; the
+/// same range as Eq. 14 so the two fits compare.
+pub const ANALYSE_EQ16_PHI: [f64; 2] = [0.8, 0.98];
+/// Jamming: σ stays above 1% of its final value (a few % of σ0 for the paper's curves,
+/// above the noise of the unjammed rows).
+pub const ANALYSE_JAMMING_FRACTION: f64 = 0.01;
+/// Single grains: the linear regime, ε <= 2% (the paper's BPM "of the order of 2%"; Eq. 13
+/// holds below 5%).
+pub const ANALYSE_SMALL_STRAIN: f64 = 0.02;
+/// Single BPM grains: the plateau is read from ε = 0.1 on (as `compact` does).
+pub const ANALYSE_PLATEAU_STRAIN: [f64; 2] = [0.1, 1.0];
+
 // ---- contact-dynamics solver ----
 /// θ of the Moreau-Jean scheme: 1 closes contacts exactly (METHODS.md §1.1).
 pub const THETA: f64 = 1.0;

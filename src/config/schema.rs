@@ -332,10 +332,37 @@ fn no_friction() -> OneOrMany<f64> {
     OneOrMany::One(0.0)
 }
 
-/// Post-processing of the compaction and single-grain runs.
+/// Post-processing of the compaction and single-grain runs (METHODS.md §5): measures and
+/// fit ranges. Only the analyse node hashes these, so changing one recomputes only analyse.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Analyse {}
+#[serde(deny_unknown_fields, default)]
+pub struct Analyse {
+    /// Φ0 of Eqs. 14 and 16; σ0 = σ(Φ = Φ0) (the paper: 0.8).
+    pub phi0: f64,
+    /// Φ range of the Eq. 14 fit of BPM packings (the paper: [0.8, 0.98]).
+    pub eq14_phi: [f64; 2],
+    /// Φ range of the Eq. 16 fit of MPM packings.
+    pub eq16_phi: [f64; 2],
+    /// Jamming: the first row from which σ stays above this fraction of its final value.
+    pub jamming_fraction: f64,
+    /// Single grains: the small-strain slope is fitted on 0 < ε <= this.
+    pub small_strain: f64,
+    /// Single BPM grains: the plateau σ<a0>/F0 is the mean over this strain range.
+    pub plateau_strain: [f64; 2],
+}
+
+impl Default for Analyse {
+    fn default() -> Self {
+        Analyse {
+            phi0: d::ANALYSE_PHI0,
+            eq14_phi: d::ANALYSE_EQ14_PHI,
+            eq16_phi: d::ANALYSE_EQ16_PHI,
+            jamming_fraction: d::ANALYSE_JAMMING_FRACTION,
+            small_strain: d::ANALYSE_SMALL_STRAIN,
+            plateau_strain: d::ANALYSE_PLATEAU_STRAIN,
+        }
+    }
+}
 
 /// A key that takes one value or a list of values (one case each).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -76,7 +76,42 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
             positive("compact.time_step", dt)?;
         }
     }
+    if let Some(a) = &p.analyse {
+        analyse(a)?;
+    }
     Ok(())
+}
+
+/// A [min, max] range inside (lo, hi).
+fn within(key: &str, r: [f64; 2], lo: f64, hi: f64) -> Result<(), Failure> {
+    if r.iter().all(|x| (lo..=hi).contains(x)) && r[0] < r[1] {
+        Ok(())
+    } else {
+        fail(
+            key,
+            r,
+            &format!("must be [min, max] with {lo} <= min < max <= {hi}"),
+        )
+    }
+}
+
+fn analyse(a: &Analyse) -> Result<(), Failure> {
+    if !(a.phi0 > 0.0 && a.phi0 < 1.0) {
+        fail("analyse.phi0", a.phi0, "must be in (0, 1)")?;
+    }
+    within("analyse.eq14_phi", a.eq14_phi, 0.0, 1.0)?;
+    within("analyse.eq16_phi", a.eq16_phi, 0.0, 1.0)?;
+    if !(a.jamming_fraction > 0.0 && a.jamming_fraction < 1.0) {
+        fail(
+            "analyse.jamming_fraction",
+            a.jamming_fraction,
+            "must be in (0, 1)",
+        )?;
+    }
+    if !(a.small_strain > 0.0 && a.small_strain < 1.0) {
+        fail("analyse.small_strain", a.small_strain, "must be in (0, 1)")?;
+    }
+    within("analyse.plateau_strain", a.plateau_strain, 0.0, 10.0)
 }
 
 fn prepare(p: &Prepare) -> Result<(), Failure> {

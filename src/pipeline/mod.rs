@@ -70,6 +70,9 @@ pub fn run_dir(out: &Path, loaded: &Loaded) -> PathBuf {
 /// The per-node context a stage runs in: its output folder, snapshots, progress.
 pub struct StageCtx {
     pub dir: PathBuf,
+    /// The nodes this one reads, in the order of its upstream states (their cases and
+    /// parameters).
+    pub upstream: Vec<Node>,
     snapshot: PathBuf,
     pub quiet: bool,
 }
@@ -81,6 +84,7 @@ impl StageCtx {
         StageCtx {
             snapshot: dir.join("scratch.snap"),
             dir,
+            upstream: Vec::new(),
             quiet: true,
         }
     }
@@ -184,7 +188,8 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
             }
         }
         let ctx = StageCtx {
-            dir: root.join(node.stage.name()).join(&node.case),
+            dir: node.dir(&root),
+            upstream: node.upstream.iter().map(|&u| nodes[u].clone()).collect(),
             snapshot: root
                 .join("snapshots")
                 .join(node.checkpoint_name().replace(".ckpt", ".snap")),

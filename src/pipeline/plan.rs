@@ -60,6 +60,15 @@ impl Node {
         self.hash.to_hex()[..16].to_string()
     }
 
+    /// The node's output folder under the pipeline's: `<stage>/<case>/`, except the one
+    /// analyse node of a pipeline, whose files are the contract's `analyse/summary.json` etc.
+    pub fn dir(&self, root: &std::path::Path) -> std::path::PathBuf {
+        match self.stage {
+            Stage::Analyse => root.join(self.stage.name()),
+            _ => root.join(self.stage.name()).join(&self.case),
+        }
+    }
+
     /// File name of the node's checkpoint.
     pub fn checkpoint_name(&self) -> String {
         format!("{}.{}.{}.ckpt", self.stage.name(), self.case, self.short())

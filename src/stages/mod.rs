@@ -1,6 +1,7 @@
 //! Stages: thin glue from a config section and the upstream states to an engine call and a
 //! new state. Each stage's output is one variant of `StageState`, the checkpoint payload.
 
+pub mod analyse;
 pub mod bpm_packing;
 pub mod compact;
 pub mod discretise;
@@ -28,6 +29,8 @@ pub enum StageState {
     /// The disks of a packing to become MPM grains (last: checkpoints keep their variant
     /// numbers).
     MpmPacking(mpm_packing::MpmPackingGrains),
+    /// The analysis of every case (its files are under `analyse/`).
+    Analysed(analyse::Analysed),
 }
 
 impl StageState {
@@ -48,6 +51,10 @@ impl StageState {
             StageState::MpmCompacted(c) => {
                 serde_json::json!({"stats": c.stats, "small_strain": c.small_strain})
             }
+            StageState::Analysed(a) => serde_json::json!({
+                "summary": serde_json::from_str::<serde_json::Value>(&a.summary_json).unwrap_or_default(),
+                "files": a.files,
+            }),
         }
     }
 }
@@ -71,10 +78,14 @@ pub(crate) fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> C
 
 /// Whether this build can run a node; a node it cannot is refused before any work starts,
 /// never faked.
-pub fn supported(_p: &Pipeline, node: &Node) -> Result<(), String> {
+pub fn supported(p: &Pipeline, node: &Node) -> Result<(), String> {
     match node.stage {
-        Stage::Prepare | Stage::Discretise | Stage::Compact => Ok(()),
-        Stage::Analyse => Err("the analyse stage is not built in this version".into()),
+        Stage::Prepare | Stage::Analyse => Ok(()),
+        Stage::Discretise | Stage::Compact if p.prepare.layout == Layout::Explicit => Err(format!(
+            "the {} stage needs grains (prepare.layout packing or single); an explicit scene holds rigid disks only",
+            node.stage.name()
+        )),
+        Stage::Discretise | Stage::Compact => Ok(()),
     }
 }
 
@@ -139,6 +150,14 @@ pub fn run(
         (Stage::Compact, [StageState::Mpm(g)]) => {
             let (c, summary) = mpm_single::compact(p, g, ctx)?;
             Ok((StageState::MpmCompacted(c), summary))
+        }
+        (Stage::Analyse, states) => {
+            let a = p
+                .analyse
+                .as_ref()
+                .expect("planned from the analyse section");
+            let (s, summary) = analyse::run(p, a, &analyse::inputs(ctx, states), &ctx.dir)?;
+            Ok((StageState::Analysed(s), summary))
         }
         (stage, _) => Err(format!(
             "the {} stage cannot run on this upstream state",

@@ -43,8 +43,8 @@ pub fn checkpoints(run: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// Runs pipeline `file` quietly in the library into `dir` and returns the state of its last
-/// node, read back from its checkpoint.
+/// Runs pipeline `file` quietly in the library into `dir`, up to the compact stage (analyse
+/// has its own tests), and returns the state of its last node, read back from its checkpoint.
 pub fn run_to_state(dir: &Path, file: &Path, sets: &[&str]) -> softgrain::stages::StageState {
     use softgrain::pipeline::{self, RunOptions, store};
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
@@ -52,7 +52,7 @@ pub fn run_to_state(dir: &Path, file: &Path, sets: &[&str]) -> softgrain::stages
     let opts = RunOptions {
         out: dir.to_path_buf(),
         from: None,
-        until: None,
+        until: Some(pipeline::Stage::Compact),
         quiet: true,
     };
     let out = pipeline::run(&loaded, &opts).unwrap();

@@ -1,0 +1,171 @@
+//! `report.md`: every figure the paper states beside what this run measured, the fits, and
+//! the figures themselves.
+
+use super::reference::Stated;
+use super::summary::CaseSummary;
+use std::fmt::Write as _;
+
+fn num(v: f64) -> String {
+    if v.fract() == 0.0 && v.abs() < 1e4 {
+        format!("{v:.0}")
+    } else if v != 0.0 && (v.abs() >= 1e4 || v.abs() < 1e-3) {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.4}")
+    }
+}
+
+/// A summary field by its JSON name (the reference table's key).
+fn measured(s: &CaseSummary, key: &str) -> Option<f64> {
+    serde_json::to_value(s).ok()?.get(key)?.as_f64()
+}
+
+/// The comparison table: one row per stated figure and case it applies to; a stated figure
+/// that no case of this run applies to, or that this run does not measure, says so.
+pub fn comparison(refs: &[Stated], cases: &[CaseSummary]) -> String {
+    let mut t = String::from(
+        "| quantity | case | paper | this run | run / paper | where the paper states it |\n| --- | --- | --- | --- | --- | --- |\n",
+    );
+    for st in refs {
+        let applies: Vec<&CaseSummary> = cases.iter().filter(|c| st.applies_to(c)).collect();
+        let what = if st.unit.is_empty() {
+            st.statement.clone()
+        } else {
+            format!("{} ({})", st.statement, st.unit)
+        };
+        if applies.is_empty() {
+            let _ = writeln!(
+                t,
+                "| {what} | {} | {} | no such case in this pipeline | | {} |",
+                st.case,
+                num(st.value),
+                st.source
+            );
+        }
+        for c in applies {
+            let (run, ratio) = match measured(c, &st.key) {
+                Some(m) => (num(m), num(m / st.value)),
+                None => ("not measured".into(), String::new()),
+            };
+            let _ = writeln!(
+                t,
+                "| {what} | {} | {} | {run} | {ratio} | {} |",
+                c.case,
+                num(st.value),
+                st.source
+            );
+        }
+    }
+    t
+}
+
+/// The fits of the packing cases.
+fn fits(cases: &[CaseSummary]) -> String {
+    let mut t = String::from(
+        "| case | law | value | R² | Φ range | points | α by nonlinear least squares (R²) |\n| --- | --- | --- | --- | --- | --- | --- |\n",
+    );
+    let opt = |v: Option<f64>| v.map_or("—".to_string(), num);
+    for c in cases.iter().filter(|c| c.fit.is_some()) {
+        let (law, value) = match (c.alpha, c.slope) {
+            (Some(a), _) => ("Eq. 14, α", a),
+            (_, Some(b)) => ("Eq. 16, slope", b),
+            _ => ("none (too few points)", f64::NAN),
+        };
+        let nls = match (c.alpha_nls, c.r2_nls) {
+            (Some(a), Some(r)) => format!("{} ({})", num(a), num(r)),
+            _ => "—".into(),
+        };
+        let _ = writeln!(
+            t,
+            "| {} | {law} | {} | {} | [{}, {}] | {} | {nls} |",
+            c.case,
+            num(value),
+            opt(c.r2),
+            opt(c.fit_phi_min),
+            opt(c.fit_phi_max),
+            c.fit_points.unwrap_or(0)
+        );
+    }
+    t
+}
+
+/// The whole report. `figures` are (title, PNG file name) in drawing order.
+pub fn markdown(
+    pipeline: &str,
+    refs: &[Stated],
+    cases: &[CaseSummary],
+    figures: &[(String, String)],
+    notes: &[String],
+) -> String {
+    let mut r = format!(
+        "# Analysis of `{pipeline}`\n\nCases: {}. Measures and fits as in METHODS.md §5; every number here is also in `summary.json` and `summary.parquet`, the time series in `*.parquet`.\n\n",
+        cases
+            .iter()
+            .map(|c| format!("`{}` ({}, μ = {})", c.case, c.method, c.friction))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    for n in notes {
+        let _ = writeln!(r, "- {n}");
+    }
+    if !notes.is_empty() {
+        r.push('\n');
+    }
+    r.push_str("## The paper's figures beside this run\n\n");
+    r.push_str(&comparison(refs, cases));
+    if cases.iter().any(|c| c.fit.is_some()) {
+        r.push_str("\n## Fits of Eqs. 14 and 16 (Φ against x = σ/σ0 − 1, R² of Φ)\n\n");
+        r.push_str(&fits(cases));
+    }
+    if !figures.is_empty() {
+        r.push_str("\n## Figures\n\n");
+        for (title, png) in figures {
+            let _ = writeln!(r, "### {title}\n\n![{title}]({png})\n");
+        }
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::reference::paper;
+
+    #[test]
+    fn the_table_sets_each_stated_figure_beside_the_measure() {
+        let c = CaseSummary {
+            case: "mpm-mu0".into(),
+            method: "mpm".into(),
+            kind: "packing".into(),
+            slope: Some(0.04),
+            jamming_strain: Some(0.1),
+            fit: Some("eq16".into()),
+            r2: Some(0.99),
+            ..Default::default()
+        };
+        let t = comparison(&paper(), std::slice::from_ref(&c));
+        // the slope is half the paper's, its row says so
+        assert!(
+            t.lines()
+                .any(|l| l.contains("beta/K_g") && l.contains("| 0.0400 | 0.5000 |")),
+            "{t}"
+        );
+        assert!(
+            t.lines()
+                .any(|l| l.contains("jamming at eps") && l.contains("| 1.2500 |"))
+        );
+        assert!(t.contains("no such case in this pipeline"));
+        assert!(
+            t.lines()
+                .any(|l| l.contains("Z about 3") && l.contains("not measured"))
+        );
+        let md = markdown(
+            "x",
+            &paper(),
+            &[c],
+            &[("Fig. 11".into(), "fig11.png".into())],
+            &[],
+        );
+        assert!(md.contains("![Fig. 11](fig11.png)") && md.contains("Eq. 16, slope"));
+    }
+}
