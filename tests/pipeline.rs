@@ -213,9 +213,11 @@ fn bad_input_exits_2_naming_file_key_value_and_position() {
 }
 
 #[test]
-fn a_stage_not_built_yet_is_refused_before_any_work() {
-    let dir = temp_dir("unbuilt");
-    let f = write(&dir, "g.yaml", &format!("{GRAPH}analyse: {{}}\n"));
+fn a_stage_that_cannot_run_on_its_scene_is_refused_before_any_work() {
+    let dir = temp_dir("unrunnable");
+    // an explicit scene holds rigid disks only: nothing to discretise
+    let yaml = "name: g\nprepare:\n  layout: explicit\n  duration: 0.01\n  time_step: 1.0e-4\n  bodies:\n    - position: [0.0, 0.01]\n      radius: 0.005\n  walls:\n    - from: [-1.0, 0.0]\n      to: [1.0, 0.0]\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.0e-4, 2.0e-4]\n    f0: 1.0\n";
+    let f = write(&dir, "g.yaml", yaml);
     let o = softgrain(&[
         "pipeline",
         "run",
@@ -225,7 +227,7 @@ fn a_stage_not_built_yet_is_refused_before_any_work() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("analyse stage is not built"),
+        stderr(&o).contains("discretise stage needs grains"),
         "{}",
         stderr(&o)
     );
