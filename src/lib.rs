@@ -13,4 +13,5 @@ pub mod mpm;
 pub mod packing;
 pub mod pipeline;
 pub mod rng;
+pub mod shortcuts;
 pub mod stages;

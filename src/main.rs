@@ -105,6 +105,11 @@ fn ignore_file_size_signal() {}
 fn main() -> ExitCode {
     ignore_file_size_signal();
     let cli = Cli::parse();
+    // a misspelt measuring switch must not silently measure the default path
+    if let Err(e) = softgrain::shortcuts::Shortcuts::from_env() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     match cli.command {
         Command::Validate { file, set } => match config::load(&file, &set) {
             Ok(loaded) => {

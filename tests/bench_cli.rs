@@ -1,6 +1,6 @@
 //! `softgrain bench` on a tiny sweep (two values per knob, one repeat, all families): the CSV
 //! has the contract's columns and one row per setting, every family has its plot, the
-//! stability map is written; a wrong bench file exits 2 naming the file, the key and the value.
+//! stability map and the skips table are written; a wrong bench file exits 2 naming the file, the key and the value.
 
 mod common;
 
@@ -24,6 +24,12 @@ bpm:
   base: {tolerance: 1.0e-3, time_step: 0.2}
   tolerance: [1.0e-2, 1.0e-3]
   time_step: [0.4, 0.2]
+compaction:
+  grains: 6
+  initial_phi: 0.5
+  final_strain: 0.55
+  base: {tolerance: 1.0e-3, time_step: 0.2, wall_velocity: 1.0}
+  tolerance: [1.0e-2, 1.0e-3]
 mpm_stability:
   final_strain: 0.025
   accuracy: 0.02
@@ -40,7 +46,12 @@ fn is_png(path: &std::path::Path) -> bool {
 #[test]
 fn a_tiny_sweep_writes_the_csv_and_one_plot_per_family() {
     let dir = common::temp_dir("bench");
-    let file = common::write(&dir, "tiny.yaml", TINY);
+    // a skips section: one MPM grain, with and without the warm start of its contacts
+    let skips = format!(
+        "skips:\n  - name: grain\n    pipeline: {}/pipelines/single-grain-mpm.yaml\n    set: [discretise.mpm.resolution=0.125, compact.final_strain=0.03, output.vtk=false, analyse=null]\n    compare: force\n    variants:\n      - {{name: cold, without: [warm_start]}}\n",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let file = common::write(&dir, "tiny.yaml", &format!("{TINY}{skips}"));
     let out = dir.join("runs");
     let o = common::softgrain(&[
         "bench",
@@ -66,7 +77,7 @@ fn a_tiny_sweep_writes_the_csv_and_one_plot_per_family() {
         assert!(header.contains(&col), "no column {col} in {header:?}");
     }
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 18, "{csv}");
+    assert_eq!(rows.len(), 20, "{csv}");
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     for r in &rows {
         assert_eq!(r.len(), header.len(), "{r:?}");
@@ -93,12 +104,28 @@ fn a_tiny_sweep_writes_the_csv_and_one_plot_per_family() {
     for png in [
         "work_precision_mpm.png",
         "work_precision_cd.png",
+        "work_precision_compaction.png",
         "mpm_stability.png",
     ] {
         assert!(is_png(&bench.join(png)), "{png}");
     }
     let map = std::fs::read_to_string(bench.join("mpm_stability.csv")).unwrap();
     assert_eq!(map.lines().count(), 3, "{map}");
+    // skips.csv: the reference and the variant, the variant's force within Newton's tolerance
+    let skips = std::fs::read_to_string(bench.join("skips.csv")).unwrap();
+    let lines: Vec<Vec<&str>> = skips.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(lines.len(), 3, "{skips}");
+    let at = |name: &str| lines[0].iter().position(|h| *h == name).unwrap();
+    assert_eq!(lines[1][at("variant")], "reference");
+    assert_eq!(lines[1][at("identical")], "true");
+    assert_eq!(lines[2][at("without")], "warm_start");
+    let diff: f64 = lines[2][at("rms_difference")].parse().unwrap();
+    assert!(diff < 1e-6, "{skips}");
+    assert!(lines[2][at("ratio_to_reference")].parse::<f64>().unwrap() > 0.0);
+    assert!(
+        !dir.join("runs/tiny/bench/skips-runs").exists(),
+        "scratch runs left"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -8,19 +8,22 @@
 //! judges each setting by its error (`table.rs`), names the Pareto-best settings, and writes
 //! `DIR/<name>/bench/work_precision.csv` and `work_precision_<family>.png`; with an
 //! `mpm_stability` section also `mpm_stability.csv` and `mpm_stability.png` (run in the
-//! parent: the map reports steps, not memory).
+//! parent: the map reports steps, not memory); with a `skips` section `skips.csv`, each
+//! run a child `softgrain pipeline run` (`skips.rs`).
 
 pub mod bpm;
 pub mod cd;
+pub mod compaction;
 pub mod mpm;
 mod plot;
+pub mod skips;
 pub mod spec;
 mod table;
 
 pub use spec::{BenchSpec, load};
 
 use serde::{Deserialize, Serialize};
-use spec::{BpmSetting, CdSetting, MpmSetting, Shape};
+use spec::{BpmSetting, CdSetting, CompactionSetting, MpmSetting, Shape};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -41,6 +44,7 @@ enum Engine {
     Mpm(MpmSetting),
     Cd(CdSetting),
     Bpm(BpmSetting),
+    Compaction(CompactionSetting),
 }
 
 /// Every setting of the sweep, in a fixed order (a child finds its own by index).
@@ -126,6 +130,29 @@ pub fn settings(spec: &BenchSpec) -> Vec<Setting> {
         out.extend(num("tolerance", &b.tolerance, |s, x| s.tolerance = x));
         out.extend(num("time_step", &b.time_step, |s, x| s.time_step = x));
     }
+    if let Some(c) = &spec.compaction {
+        let num = |knob: &'static str, values: &[f64], set: fn(&mut CompactionSetting, f64)| {
+            values
+                .iter()
+                .map(move |&x| {
+                    let mut s = c.base;
+                    set(&mut s, x);
+                    Setting {
+                        family: "compaction",
+                        knob,
+                        value: x.to_string(),
+                        number: Some(x),
+                        engine: Engine::Compaction(s),
+                    }
+                })
+                .collect::<Vec<_>>()
+        };
+        out.extend(num("tolerance", &c.tolerance, |s, x| s.tolerance = x));
+        out.extend(num("time_step", &c.time_step, |s, x| s.time_step = x));
+        out.extend(num("wall_velocity", &c.wall_velocity, |s, x| {
+            s.wall_velocity = x
+        }));
+    }
     out
 }
 
@@ -136,9 +163,13 @@ pub struct Outcome {
     pub wall_s: f64,
     /// Peak resident memory of the process that ran the setting (MB), where /proc has it.
     pub peak_rss_mb: Option<f64>,
-    /// MPM: F/F_Johnson - 1 at ε = 0.02 and 0.05, and (strain, force in N/m) per step.
+    /// MPM: F/F_Johnson - 1 at ε = 0.02 and 0.05, and (strain, force in N/m) per step;
+    /// compaction: (strain, σ in Pa) per recorded row.
     pub johnson: Option<[f64; 2]>,
     pub curve: Vec<[f64; 2]>,
+    /// Compaction: (strain, Φ) per recorded row.
+    #[serde(default)]
+    pub phi_curve: Vec<[f64; 2]>,
     /// CD: floor balance, max overlap over <r>, incline acceleration error.
     pub floor_balance: Option<f64>,
     pub max_overlap: Option<f64>,
@@ -167,11 +198,20 @@ pub fn run_one(spec: &BenchSpec, index: usize) -> Result<Outcome, String> {
                 })
             }
             Engine::Bpm(b) => {
-                let scratch = std::env::temp_dir()
-                    .join(format!("softgrain-bench-bpm-{}", std::process::id()));
+                let scratch = scratch("bpm");
                 let r = bpm::measure(spec.bpm.as_ref().expect("a bpm setting"), b, &scratch);
                 let _ = std::fs::remove_dir_all(&scratch);
                 r.map(|plateau| out.plateau = Some(plateau))
+            }
+            Engine::Compaction(c) => {
+                let scratch = scratch("compaction");
+                let f = spec.compaction.as_ref().expect("a compaction setting");
+                let r = compaction::measure(f, c, &scratch);
+                let _ = std::fs::remove_dir_all(&scratch);
+                r.map(|m| {
+                    out.curve = m.sigma;
+                    out.phi_curve = m.phi;
+                })
             }
             Engine::Cd(c) => cd::measure(spec.cd.as_ref().expect("a cd setting"), c).map(|r| {
                 out.floor_balance = Some(r.floor_balance);
@@ -189,6 +229,11 @@ pub fn run_one(spec: &BenchSpec, index: usize) -> Result<Outcome, String> {
     out.wall_s = times[times.len() / 2];
     out.peak_rss_mb = peak_rss_mb();
     Ok(out)
+}
+
+/// A scratch folder for the stage functions, private to this process.
+fn scratch(family: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("softgrain-bench-{family}-{}", std::process::id()))
 }
 
 /// `VmHWM` of this process from /proc/self/status (MB).
@@ -256,6 +301,11 @@ pub fn run(
                 r.outcome.peak_rss_mb.unwrap_or(f64::NAN)
             );
         }
+    }
+    if let Some(scenes) = &spec.skips {
+        let base = file.parent().unwrap_or(Path::new("."));
+        let runs = skips::run(scenes, base, spec.repeats, exe, &dir)?;
+        write(&dir.join("skips.csv"), skips::csv(&runs).as_bytes())?;
     }
     if let Some(m) = &spec.mpm_stability {
         let runs = mpm::stability(m, |r| {

@@ -22,6 +22,10 @@ pub struct BenchSpec {
     pub bpm: Option<BpmFamily>,
     #[serde(default)]
     pub mpm_stability: Option<MpmStability>,
+    #[serde(default)]
+    pub compaction: Option<CompactionFamily>,
+    #[serde(default)]
+    pub skips: Option<Vec<SkipScene>>,
 }
 
 fn repeats() -> usize {
@@ -152,6 +156,89 @@ pub struct MpmStability {
     pub travel_per_step: Vec<f64>,
 }
 
+/// A reduced BPM packing compacted from `initial_phi` to `final_strain`, inter-grain
+/// friction `friction`; σ(ε) and Φ(ε) are compared with the knob's finest value.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CompactionFamily {
+    pub grains: usize,
+    #[serde(default = "packing_particle_diameter")]
+    pub particle_diameter: [f64; 2],
+    #[serde(default = "packing_initial_phi")]
+    pub initial_phi: f64,
+    #[serde(default)]
+    pub friction: f64,
+    pub final_strain: f64,
+    pub base: CompactionSetting,
+    #[serde(default)]
+    pub tolerance: Vec<f64>,
+    #[serde(default)]
+    pub time_step: Vec<f64>,
+    #[serde(default)]
+    pub wall_velocity: Vec<f64>,
+}
+
+/// One compaction setting: NLGS tolerance, time step in units of t0, top-wall speed (m/s;
+/// the slowest is the finest, the nearest to quasi-static).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CompactionSetting {
+    pub tolerance: f64,
+    pub time_step: f64,
+    pub wall_velocity: f64,
+}
+
+/// A scene for the `skips` section: a pipeline (path relative to the bench file) run with
+/// every shortcut on (the reference), then once per variant.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkipScene {
+    pub name: String,
+    pub pipeline: std::path::PathBuf,
+    /// `--set KEY=VALUE` overrides of the scene, for the reference and every variant.
+    #[serde(default)]
+    pub set: Vec<String>,
+    /// The last stage to run (`--until`), e.g. `prepare` for a deposit alone.
+    #[serde(default)]
+    pub until: Option<String>,
+    /// The `timeseries.csv` column compared with the reference's: its means over `windows`
+    /// equal strain windows (a BPM run's single-step forces jump by tens of percent, so a
+    /// shortcut that changes the solver's path is judged on means over wide windows).
+    pub compare: String,
+    #[serde(default = "windows")]
+    pub windows: usize,
+    /// Threads of the reference run (`--jobs`).
+    #[serde(default = "jobs")]
+    pub jobs: usize,
+    pub variants: Vec<SkipVariant>,
+}
+
+/// What a variant changes: shortcuts turned off (`SOFTGRAIN_WITHOUT`), more `--set`s, or
+/// the thread count.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkipVariant {
+    pub name: String,
+    #[serde(default)]
+    pub without: Vec<String>,
+    #[serde(default)]
+    pub set: Vec<String>,
+    #[serde(default)]
+    pub jobs: Option<usize>,
+}
+
+fn windows() -> usize {
+    10
+}
+fn jobs() -> usize {
+    2
+}
+fn packing_particle_diameter() -> [f64; 2] {
+    [2.0e-4, 3.4e-4]
+}
+fn packing_initial_phi() -> f64 {
+    0.55
+}
 fn radius() -> f64 {
     5e-3
 }
@@ -234,12 +321,109 @@ fn check(s: &BenchSpec) -> Result<(), Failure> {
     if s.repeats == 0 {
         return fail("repeats", "0".into(), "must be >= 1");
     }
-    if s.mpm.is_none() && s.cd.is_none() && s.bpm.is_none() && s.mpm_stability.is_none() {
+    if s.mpm.is_none()
+        && s.cd.is_none()
+        && s.bpm.is_none()
+        && s.mpm_stability.is_none()
+        && s.compaction.is_none()
+        && s.skips.is_none()
+    {
         return fail(
             "mpm",
             "".into(),
-            "give at least one family: mpm, cd, bpm, mpm_stability",
+            "give at least one family: mpm, cd, bpm, mpm_stability, compaction, skips",
         );
+    }
+    if let Some(c) = &s.compaction {
+        if c.grains < 2 {
+            return fail("compaction.grains", c.grains.to_string(), "must be >= 2");
+        }
+        let [d0, d1] = c.particle_diameter;
+        if !(d0 > 0.0 && d1 >= d0 && d1 < 0.7e-3) {
+            return fail(
+                "compaction.particle_diameter",
+                format!("{:?}", c.particle_diameter),
+                "must be [min, max] with 0 < min <= max < 0.7 mm (grains are 1.4-2.4 mm)",
+            );
+        }
+        if !(c.initial_phi > 0.0 && c.initial_phi < 1.0) {
+            return fail(
+                "compaction.initial_phi",
+                c.initial_phi.to_string(),
+                "must lie in (0, 1)",
+            );
+        }
+        if c.friction.is_nan() || c.friction < 0.0 {
+            return fail(
+                "compaction.friction",
+                c.friction.to_string(),
+                "must be >= 0",
+            );
+        }
+        if !(c.final_strain > 0.0 && c.final_strain < 1.0) {
+            return fail(
+                "compaction.final_strain",
+                c.final_strain.to_string(),
+                "must lie in (0, 1)",
+            );
+        }
+        let b = c.base;
+        positive("compaction.base.tolerance", b.tolerance)?;
+        bpm_step("compaction.base.time_step", b.time_step)?;
+        positive("compaction.base.wall_velocity", b.wall_velocity)?;
+        c.tolerance
+            .iter()
+            .try_for_each(|&x| positive("compaction.tolerance", x))?;
+        c.time_step
+            .iter()
+            .try_for_each(|&x| bpm_step("compaction.time_step", x))?;
+        c.wall_velocity
+            .iter()
+            .try_for_each(|&x| positive("compaction.wall_velocity", x))?;
+    }
+    for (k, scene) in s.skips.iter().flatten().enumerate() {
+        let key = |field: &str| format!("skips[{k}].{field}");
+        if scene.name.is_empty() || scene.name.contains(['/', '\\']) {
+            return fail(
+                &key("name"),
+                scene.name.clone(),
+                "must be a non-empty folder name",
+            );
+        }
+        if scene.compare.is_empty() {
+            return fail(
+                &key("compare"),
+                "".into(),
+                "must name a timeseries.csv column",
+            );
+        }
+        if scene.windows == 0 {
+            return fail(&key("windows"), "0".into(), "must be >= 1");
+        }
+        if scene.jobs == 0 {
+            return fail(&key("jobs"), "0".into(), "must be >= 1");
+        }
+        if scene.variants.is_empty() {
+            return fail(
+                &key("variants"),
+                "[]".into(),
+                "must list at least one variant",
+            );
+        }
+        for v in &scene.variants {
+            for w in &v.without {
+                if !crate::shortcuts::NAMES.contains(&w.as_str()) {
+                    return fail(
+                        &key("variants.without"),
+                        w.clone(),
+                        &format!("must be one of {}", crate::shortcuts::NAMES.join(", ")),
+                    );
+                }
+            }
+            if v.jobs == Some(0) {
+                return fail(&key("variants.jobs"), "0".into(), "must be >= 1");
+            }
+        }
     }
     if let Some(b) = &s.bpm {
         positive("bpm.wall_velocity", b.wall_velocity)?;

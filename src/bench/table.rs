@@ -1,7 +1,7 @@
 //! The work-precision table: one row per setting, the error each knob is judged by, the
 //! Pareto-best settings of each family, and the CSV.
 
-use super::{Outcome, Setting, mpm};
+use super::{Outcome, Setting, mpm, skips};
 
 /// One row of `work_precision.csv`.
 pub struct Row {
@@ -15,22 +15,26 @@ pub struct Row {
     /// No other setting of the family is both faster and more accurate.
     pub pareto: bool,
     pub outcome: Outcome,
-    /// MPM: RMS force-curve difference to the finest run of the knob, over its RMS.
+    /// MPM: RMS force-curve difference to the finest run of the knob, over its RMS;
+    /// compaction: the same for σ(ε).
     pub rms_vs_finest: Option<f64>,
+    /// Compaction: the same for Φ(ε).
+    pub phi_rms_vs_finest: Option<f64>,
 }
 
 /// Builds the rows. MPM resolution and shape are judged against Johnson's solution (the
 /// larger of |F/F_J - 1| at ε = 0.02 and 0.05); MPM time step and Newton tolerance against
 /// the finest value of the knob (force-curve RMS); CD settings by the worst of the floor
 /// balance, the max overlap over <r> and the incline acceleration error; BPM settings by
-/// the plateau against the knob's finest value.
+/// the plateau against the knob's finest value; compaction settings by the larger of the
+/// σ(ε) (means over ten strain windows) and Φ(ε) RMS differences to the knob's finest value.
 pub fn rows(settings: &[Setting], outcomes: Vec<Outcome>) -> Vec<Row> {
-    let finest = |knob: &str| {
+    let finest = |family: &str, knob: &str| {
         (settings.iter().zip(&outcomes))
-            .filter(|(s, o)| s.knob == knob && s.family == "mpm" && o.failure.is_none())
+            .filter(|(s, o)| s.knob == knob && s.family == family && o.failure.is_none())
             .filter_map(|(s, o)| Some((s.number?, o)))
             .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|(x, o)| (x, o.curve.clone()))
+            .map(|(x, o)| (x, o.curve.clone(), o.phi_curve.clone()))
     };
     // BPM: the plateau of the knob's finest (smallest) value
     let plateau_ref = |knob: &str| {
@@ -41,12 +45,22 @@ pub fn rows(settings: &[Setting], outcomes: Vec<Outcome>) -> Vec<Row> {
     };
     let mut rows: Vec<Row> = (settings.iter().zip(outcomes.iter()))
         .map(|(s, o)| {
-            let reference = finest(s.knob);
-            let rms = match (&reference, o.failure.is_none() && s.family == "mpm") {
-                (Some((x, curve)), true) if s.number != Some(*x) => {
-                    Some(mpm::rms_difference(&o.curve, curve))
+            let reference = finest(s.family, s.knob);
+            let compared = o.failure.is_none() && matches!(s.family, "mpm" | "compaction");
+            let (rms, phi_rms) = match (&reference, compared) {
+                (Some((x, curve, phi)), true) if s.number != Some(*x) => {
+                    if s.family == "compaction" {
+                        // σ of single steps jumps by tens of percent: compared on the
+                        // means of ten strain windows; Φ is smooth
+                        (
+                            Some(skips::windowed_difference(&o.curve, curve, 10)),
+                            Some(mpm::rms_difference(&o.phi_curve, phi)),
+                        )
+                    } else {
+                        (Some(mpm::rms_difference(&o.curve, curve)), None)
+                    }
                 }
-                _ => None,
+                _ => (None, None),
             };
             let (error, kind) = match (s.family, s.knob) {
                 ("mpm", "resolution" | "shape") => {
@@ -54,6 +68,11 @@ pub fn rows(settings: &[Setting], outcomes: Vec<Outcome>) -> Vec<Row> {
                 }
                 ("mpm", _) if rms.is_none() && o.failure.is_none() => (None, "reference"),
                 ("mpm", _) => (rms, "rms_vs_finest"),
+                ("compaction", _) if rms.is_none() && o.failure.is_none() => (None, "reference"),
+                ("compaction", _) => (
+                    rms.zip(phi_rms).map(|(a, b)| a.max(b)),
+                    "sigma_or_phi_rms_vs_finest",
+                ),
                 ("bpm", knob) => match (plateau_ref(knob), o.plateau) {
                     (Some((x, _)), Some(_)) if s.number == Some(x) => (None, "reference"),
                     (Some((_, r)), Some(p)) => (Some((p / r - 1.0).abs()), "plateau_vs_finest"),
@@ -77,6 +96,7 @@ pub fn rows(settings: &[Setting], outcomes: Vec<Outcome>) -> Vec<Row> {
                 pareto: false,
                 outcome: o.clone(),
                 rms_vs_finest: rms,
+                phi_rms_vs_finest: phi_rms,
             }
         })
         .collect();
@@ -105,7 +125,7 @@ fn mark_pareto(rows: &mut [Row]) {
     }
 }
 
-pub const HEADER: &str = "family,knob,value,wall_s,error,error_kind,peak_rss_mb,pareto,johnson_0.02,johnson_0.05,rms_vs_finest,floor_balance,max_overlap,incline,plateau,failure";
+pub const HEADER: &str = "family,knob,value,wall_s,error,error_kind,peak_rss_mb,pareto,johnson_0.02,johnson_0.05,rms_vs_finest,phi_rms_vs_finest,floor_balance,max_overlap,incline,plateau,failure";
 
 pub fn csv(rows: &[Row]) -> String {
     let opt = |x: Option<f64>| x.map(|v| format!("{v:.6e}")).unwrap_or_default();
@@ -118,7 +138,7 @@ pub fn csv(rows: &[Row]) -> String {
             .unwrap_or("")
             .replace([',', '\n', '"'], " ");
         out += &format!(
-            "{},{},{},{:.6},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.family,
             r.knob,
             r.value,
@@ -130,6 +150,7 @@ pub fn csv(rows: &[Row]) -> String {
             opt(o.johnson.map(|j| j[0])),
             opt(o.johnson.map(|j| j[1])),
             opt(r.rms_vs_finest),
+            opt(r.phi_rms_vs_finest),
             opt(o.floor_balance),
             opt(o.max_overlap),
             opt(o.incline),

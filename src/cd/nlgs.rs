@@ -54,6 +54,8 @@ pub struct StepData<'a, L> {
     /// 1/(θh): turns an open gap into the normal velocity that closes it exactly at the
     /// end of the step (METHODS.md §1.4).
     pub gap_rate: f64,
+    /// Frictionless contacts solve their normal impulse only (`shortcuts::Shortcuts`).
+    pub skip_frictionless: bool,
 }
 
 /// A body as the sweeps see it, packed so that one local solve touches two cache lines:
@@ -77,6 +79,8 @@ struct Row {
     j: u32,
     k: u32,
     law: u16,
+    /// false: a frictionless contact whose tangential solve is skipped (p_t stays 0).
+    frictional: bool,
     n: V2,
     shift: f64,
     w_nn: f64,
@@ -101,6 +105,22 @@ unsafe fn update_row<L: InteractionLaw>(
 ) -> ([f64; 2], [f64; 2]) {
     // SAFETY: per the contract above.
     let (bi, bj) = unsafe { (&mut *dofs.add(r.i as usize), *dofs.add(r.j as usize)) };
+    if !r.frictional {
+        // μ = 0: p_t = 0 and no spin change, so only the normal row is solved.
+        let u_n = (bi.v - bj.v).dot(&r.n);
+        let hat_n = u_n - r.w_nn * r.p_n + r.shift;
+        let (p_n, _) = laws.get(r.law).solve(hat_n, 0.0, r.w_nn, r.w_tt);
+        let old = [r.p_n, 0.0];
+        let p = (p_n - r.p_n) * r.n;
+        bi.v += bi.im * p;
+        if r.j < n_bodies {
+            // SAFETY: as below.
+            let bj = unsafe { &mut *dofs.add(r.j as usize) };
+            bj.v -= bj.im * p;
+        }
+        r.p_n = p_n;
+        return (old, [p_n, 0.0]);
+    }
     let t = perp(r.n);
     let dv = bi.v - bj.v;
     let u_n = dv.dot(&r.n);
@@ -193,6 +213,7 @@ pub fn solve<L: InteractionLaw>(
                 },
                 k,
                 law: c.law,
+                frictional: !data.skip_frictionless || data.laws.get(c.law).friction() > 0.0,
                 n: c.n,
                 shift: c.gap.max(0.0) * data.gap_rate,
                 w_nn: c.w_nn,

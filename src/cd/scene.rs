@@ -143,11 +143,20 @@ impl<L: InteractionLaw> Scene<L> {
         let alert = self.params.alert.max(2.0 * approach);
         let r_max = self.bodies.max_radius();
         let range = alert + self.laws.max_range(2.0 * r_max);
+        let shortcuts = crate::shortcuts::get();
+        // Without the Verlet shortcut a zero skin rebuilds the list at every step.
+        let skin = if shortcuts.verlet {
+            self.params.skin
+        } else {
+            0.0
+        };
         self.neighbours
-            .update(&pos_tt, &self.bodies.radius, range, self.params.skin);
+            .update(&pos_tt, &self.bodies.radius, range, skin);
         let mut contacts = self.detect(&pos_tt, pred, alert);
         contacts.sort_unstable_by_key(Contact::key);
-        warm_start(&mut contacts, &self.contacts);
+        if shortcuts.warm_start {
+            warm_start(&mut contacts, &self.contacts);
+        }
 
         // 1-2. Smooth forces (gravity, explicit law forces) and free velocities.
         let v_minus = (theta < 1.0).then(|| (self.bodies.vel.clone(), self.bodies.omega.clone()));
@@ -179,6 +188,7 @@ impl<L: InteractionLaw> Scene<L> {
             laws: &self.laws,
             wall_vel: &wall_vel,
             gap_rate: 1.0 / (theta * h),
+            skip_frictionless: shortcuts.frictionless,
         };
         let report = nlgs::solve(
             &mut contacts,

@@ -404,7 +404,9 @@ impl Packing {
                 &mut ws.slots,
             );
         }
-        nc::warm_start(&mut ws.contacts, &self.warm);
+        if crate::shortcuts::get().warm_start {
+            nc::warm_start(&mut ws.contacts, &self.warm);
+        }
         report.min_gap = ws
             .contacts
             .iter()

@@ -160,7 +160,9 @@ impl Solver {
                 &mut self.gap,
                 &mut self.contacts,
             );
-            contact::warm_start(&mut self.contacts, &self.conn.act_grid, &self.prev_active);
+            if crate::shortcuts::get().warm_start {
+                contact::warm_start(&mut self.contacts, &self.conn.act_grid, &self.prev_active);
+            }
         }
 
         self.pattern_and_predictor(nm, dt);
