@@ -1,6 +1,6 @@
 //! `softgrain bench` on a tiny sweep (two values per knob, one repeat, all families): the CSV
 //! has the contract's columns and one row per setting, every family has its plot, the
-//! stability map and the skips table are written; a wrong bench file exits 2 naming the file, the key and the value.
+//! stability maps and the skips table are written; a wrong bench file exits 2 naming the file, the key and the value.
 
 mod common;
 
@@ -30,6 +30,13 @@ compaction:
   final_strain: 0.55
   base: {tolerance: 1.0e-3, time_step: 0.2, wall_velocity: 1.0}
   tolerance: [1.0e-2, 1.0e-3]
+bpm_stability:
+  accuracy: 0.5
+  final_strain: 0.05
+  particle_diameter: [[2.4e-4, 3.9e-4]]
+  f0: [100.0]
+  wall_velocity: [2.0]
+  time_step: [0.25, 8.0]
 mpm_stability:
   final_strain: 0.025
   accuracy: 0.02
@@ -106,11 +113,19 @@ fn a_tiny_sweep_writes_the_csv_and_one_plot_per_family() {
         "work_precision_cd.png",
         "work_precision_compaction.png",
         "mpm_stability.png",
+        "bpm_stability.png",
     ] {
         assert!(is_png(&bench.join(png)), "{png}");
     }
     let map = std::fs::read_to_string(bench.join("mpm_stability.csv")).unwrap();
     assert_eq!(map.lines().count(), 3, "{map}");
+    // the BPM map: both steps run; 0.25 t0 is its own reference and stable
+    let map = std::fs::read_to_string(bench.join("bpm_stability.csv")).unwrap();
+    let lines: Vec<Vec<&str>> = map.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(lines.len(), 3, "{map}");
+    let at = |name: &str| lines[0].iter().position(|h| *h == name).unwrap();
+    assert_eq!(lines[1][at("time_step_t0")], "0.25");
+    assert_eq!(lines[1][at("stable")], "true", "{map}");
     // skips.csv: the reference and the variant, the variant's force within Newton's tolerance
     let skips = std::fs::read_to_string(bench.join("skips.csv")).unwrap();
     let lines: Vec<Vec<&str>> = skips.lines().map(|l| l.split(',').collect()).collect();

@@ -169,3 +169,41 @@ fn a_bpm_grain_far_above_its_step_limit_stops_at_once() {
         other => panic!("expected a penetration at step 0, got {other:?}"),
     }
 }
+
+/// The penetration guard covers walls too: a disk that starts more than half its radius
+/// into a wall (a failed wall contact, or a bad layout) stops the run at step 0 naming the
+/// disk and the wall; at a third of its radius the contact only stops it from going deeper.
+#[test]
+fn a_disk_deep_in_a_wall_stops_at_step_zero_naming_the_wall() {
+    use softgrain::geom::Wall;
+    let scene = |depth: f64| {
+        let mut b = Bodies::default();
+        b.push(V2::new(0.0, 1.0 - depth), 1.0, 1.0, 0);
+        let floor = Wall::new(V2::new(-5.0, 0.0), V2::new(5.0, 0.0));
+        let mut params = pair(0.01).params;
+        params.gravity = V2::new(0.0, -9.81);
+        let law = Coulomb { mu: 0.0 };
+        Scene::new(
+            b,
+            vec![floor],
+            LawTable::new(law, law, vec![law]),
+            params,
+            1,
+        )
+    };
+    let mut shallow = scene(0.3);
+    for _ in 0..20 {
+        shallow.step().unwrap();
+    }
+    let y = shallow.bodies.pos[0].y;
+    assert!((y - 0.7).abs() < 1e-9, "the disk moved to y = {y}");
+    match scene(0.7).step() {
+        Err(CdError::WallPenetration {
+            step: 0,
+            body: 0,
+            wall: 0,
+            depth,
+        }) => assert!((depth - 0.7).abs() < 1e-3, "depth {depth}"),
+        other => panic!("expected a wall penetration at step 0, got {other:?}"),
+    }
+}

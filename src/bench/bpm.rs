@@ -1,24 +1,43 @@
 //! The BPM family: one small grain between two plates (by default R = 1.5 mm, particles
 //! 0.16-0.26 mm, about 150, F0 = 100 N/m) to `final_strain`, through the prepare,
 //! discretise and compact stage functions in a scratch folder (no checkpoints); its plastic
-//! plateau σ<a0>/F0 (mean over ε ≥ 0.1) is compared with the knob's finest value.
+//! plateau σ<a0>/F0 (mean over ε ≥ 0.1) is compared with the knob's finest value. The BPM
+//! stability map runs the same grain over particle sizes, F0, plate speeds and time steps.
 
-use super::spec::{BpmFamily, BpmSetting};
+use super::skips::windowed_difference;
+use super::spec::{BpmFamily, BpmSetting, BpmStability};
 use crate::config::Pipeline;
 use crate::pipeline::StageCtx;
-use crate::stages::{compact, discretise, prepare};
+use crate::stages::compact::{self, Compacted};
+use crate::stages::{discretise, prepare};
 use std::path::Path;
 
-/// The plateau σ<a0>/F0 of one run.
-pub fn measure(f: &BpmFamily, s: &BpmSetting, scratch: &Path) -> Result<f64, String> {
-    let [d0, d1] = f.particle_diameter;
+/// What one compression is made of.
+struct Grain {
+    radius: f64,
+    particle_diameter: [f64; 2],
+    f0: f64,
+    wall_velocity: f64,
+    final_strain: f64,
+    tolerance: f64,
+    /// Time step in units of t0 = sqrt(m a0/F0) of the smallest particle.
+    time_step: f64,
+    /// Steps between recorded rows.
+    every: u64,
+}
+
+/// Compresses the grain; `beyond_step_limit` lifts the compact stage's own time-step
+/// check (≤ 0.5 t0), so that the map can look beyond it.
+fn compress(g: &Grain, scratch: &Path, beyond_step_limit: bool) -> Result<Compacted, String> {
+    let [d0, d1] = g.particle_diameter;
     let yaml = format!(
-        "name: bench-bpm\nseed: 1\nprepare:\n  layout: single\n  radius: {:e}\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [{d0:e}, {d1:e}]\n    f0: 100.0\ncompact:\n  wall_velocity: {:e}\n  final_strain: {:e}\nsolver:\n  tolerance: {:e}\noutput:\n  every: 100\n  snapshot_every: 0\n  vtk: false\n",
-        f.radius, f.wall_velocity, f.final_strain, s.tolerance
+        "name: bench-bpm\nseed: 1\nprepare:\n  layout: single\n  radius: {:e}\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [{d0:e}, {d1:e}]\n    f0: {:e}\ncompact:\n  wall_velocity: {:e}\n  final_strain: {:e}\nsolver:\n  tolerance: {:e}\noutput:\n  every: {}\n  snapshot_every: 0\n  vtk: false\n",
+        g.radius, g.f0, g.wall_velocity, g.final_strain, g.tolerance, g.every
     );
     let mut p: Pipeline = serde_saphyr::from_str(&yaml).map_err(|e| e.to_string())?;
     std::fs::create_dir_all(scratch).map_err(|e| format!("{}: {e}", scratch.display()))?;
-    let ctx = StageCtx::scratch(scratch.to_path_buf());
+    let mut ctx = StageCtx::scratch(scratch.to_path_buf());
+    ctx.beyond_step_limit = beyond_step_limit;
     let (prep, _) = prepare::run(&p, &ctx)?;
     let bpm = p
         .discretise
@@ -27,8 +46,120 @@ pub fn measure(f: &BpmFamily, s: &BpmSetting, scratch: &Path) -> Result<f64, Str
         .expect("written above");
     let (grains, _) = discretise::run_bpm(&p, &bpm, [d0, d1], &prep, &ctx)?;
     if let Some(c) = p.compact.as_mut() {
-        c.time_step = Some(s.time_step * grains.figures.t0);
+        c.time_step = Some(g.time_step * grains.figures.t0);
     }
     let (c, _) = compact::run_bpm(&p, 0.0, &grains, &ctx)?;
-    Ok(c.figures.plateau)
+    Ok(c)
+}
+
+/// The plateau σ<a0>/F0 of one run.
+pub fn measure(f: &BpmFamily, s: &BpmSetting, scratch: &Path) -> Result<f64, String> {
+    let g = Grain {
+        radius: f.radius,
+        particle_diameter: f.particle_diameter,
+        f0: 100.0,
+        wall_velocity: f.wall_velocity,
+        final_strain: f.final_strain,
+        tolerance: s.tolerance,
+        time_step: s.time_step,
+        every: 100,
+    };
+    compress(&g, scratch, false).map(|c| c.figures.plateau)
+}
+
+/// One run of the BPM stability map.
+pub struct StabilityRun {
+    pub particle_diameter: [f64; 2],
+    pub f0: f64,
+    pub wall_velocity: f64,
+    /// Time step in units of t0, and in seconds.
+    pub time_step: f64,
+    pub dt: f64,
+    /// The error that stopped the run (the stage's guards), if one did.
+    pub failure: Option<String>,
+    /// Most particles outside their grain at once, and the largest change of the grain's area.
+    pub escaped: usize,
+    pub area_change: f64,
+    /// Plate force against the smallest step's (means over five strain windows).
+    pub error: f64,
+    pub wall_s: f64,
+    /// Completed, no particle lost, area kept within 5%, force within `accuracy`.
+    pub stable: bool,
+    /// The largest stable step of its particle size, F0 and speed.
+    pub largest_stable: bool,
+}
+
+/// Runs the whole map in this process (the map reports steps, not memory).
+pub fn stability(
+    m: &BpmStability,
+    scratch: &Path,
+    mut progress: impl FnMut(&StabilityRun),
+) -> Vec<StabilityRun> {
+    let mut steps = m.time_step.clone();
+    steps.sort_by(f64::total_cmp);
+    let mut all = Vec::new();
+    for &particle_diameter in &m.particle_diameter {
+        for &f0 in &m.f0 {
+            for &wall_velocity in &m.wall_velocity {
+                let mut group: Vec<StabilityRun> = Vec::new();
+                let mut reference: Option<Vec<[f64; 2]>> = None;
+                for &time_step in &steps {
+                    let g = Grain {
+                        radius: m.radius,
+                        particle_diameter,
+                        f0,
+                        wall_velocity,
+                        final_strain: m.final_strain,
+                        tolerance: crate::config::defaults::NLGS_TOLERANCE,
+                        time_step,
+                        // a row every 10 steps: the largest steps still give each
+                        // strain window several rows
+                        every: 10,
+                    };
+                    let t = std::time::Instant::now();
+                    let out = compress(&g, scratch, true);
+                    let _ = std::fs::remove_dir_all(scratch);
+                    let mut run = StabilityRun {
+                        particle_diameter,
+                        f0,
+                        wall_velocity,
+                        time_step,
+                        dt: f64::NAN,
+                        failure: None,
+                        escaped: 0,
+                        area_change: f64::NAN,
+                        error: f64::NAN,
+                        wall_s: t.elapsed().as_secs_f64(),
+                        stable: false,
+                        largest_stable: false,
+                    };
+                    match out {
+                        Ok(c) => {
+                            let f = &c.figures;
+                            run.dt = f.time_step;
+                            run.escaped = f.escaped_max;
+                            run.area_change = f.area_change;
+                            let curve: Vec<[f64; 2]> =
+                                c.rows.iter().map(|r| [r.strain, r.force]).collect();
+                            let reference = reference.get_or_insert(curve.clone());
+                            run.error = windowed_difference(&curve, reference, 5);
+                            run.stable = run.escaped == 0
+                                && run.area_change.abs() < 0.05
+                                && run.error < m.accuracy;
+                        }
+                        Err(e) => run.failure = Some(e),
+                    }
+                    progress(&run);
+                    group.push(run);
+                }
+                // the largest step below which every step was stable
+                let last = group.iter().take_while(|r| r.stable).count();
+                if last > 0 {
+                    group[last - 1].largest_stable = true;
+                }
+                all.extend(group);
+            }
+        }
+    }
+    all
 }

@@ -8,7 +8,8 @@
 //! judges each setting by its error (`table.rs`), names the Pareto-best settings, and writes
 //! `DIR/<name>/bench/work_precision.csv` and `work_precision_<family>.png`; with an
 //! `mpm_stability` section also `mpm_stability.csv` and `mpm_stability.png` (run in the
-//! parent: the map reports steps, not memory); with a `skips` section `skips.csv`, each
+//! parent: the map reports steps, not memory), and the same for `bpm_stability`; with a
+//! `skips` section `skips.csv`, each
 //! run a child `softgrain pipeline run` (`skips.rs`).
 
 pub mod bpm;
@@ -306,6 +307,29 @@ pub fn run(
         let base = file.parent().unwrap_or(Path::new("."));
         let runs = skips::run(scenes, base, spec.repeats, exe, &dir)?;
         write(&dir.join("skips.csv"), skips::csv(&runs).as_bytes())?;
+    }
+    if let Some(m) = &spec.bpm_stability {
+        let runs = bpm::stability(m, &scratch("bpm-stability"), |r| {
+            println!(
+                "bpm_stability d {:?} F0 {} v {} Δt {} t0: {}, {} escaped, area {:+.3}, error {:.2e}, {:.3} s",
+                r.particle_diameter,
+                r.f0,
+                r.wall_velocity,
+                r.time_step,
+                r.failure.as_deref().unwrap_or("completed"),
+                r.escaped,
+                r.area_change,
+                r.error,
+                r.wall_s
+            )
+        });
+        write(
+            &dir.join("bpm_stability.csv"),
+            table::bpm_stability_csv(&runs).as_bytes(),
+        )?;
+        let tmp = dir.join(".bpm_stability.part.png");
+        plot::bpm_stability(&tmp, &runs)?;
+        rename(&tmp, &dir.join("bpm_stability.png"))?;
     }
     if let Some(m) = &spec.mpm_stability {
         let runs = mpm::stability(m, |r| {

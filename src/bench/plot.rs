@@ -201,3 +201,73 @@ fn draw_stability(path: &Path, runs: &[StabilityRun]) -> Fallible {
     root.present()?;
     Ok(())
 }
+
+/// `bpm_stability.png`: each run as a point, time step (units of t0) against plate speed,
+/// filled where stable, one colour per particle size and F0.
+pub fn bpm_stability(path: &Path, runs: &[super::bpm::StabilityRun]) -> Result<(), String> {
+    draw_bpm_stability(path, runs).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn draw_bpm_stability(path: &Path, runs: &[super::bpm::StabilityRun]) -> Fallible {
+    register_font();
+    let root = BitMapBackend::new(path, (960, 680)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "BPM grain: stable (filled) and failed or lossy (open) runs",
+            (FONT, 22),
+        )
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(
+            log_range(runs.iter().map(|r| r.wall_velocity)).log_scale(),
+            log_range(runs.iter().map(|r| r.time_step)).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("plate speed (m/s)")
+        .y_desc("time step / t0")
+        .label_style((FONT, 14))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .draw()?;
+    let mut groups: Vec<([f64; 2], f64)> =
+        runs.iter().map(|r| (r.particle_diameter, r.f0)).collect();
+    groups.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    groups.dedup();
+    let n = groups.len().max(1) as f64;
+    for (k, (d, f0)) in groups.iter().enumerate() {
+        let color = PALETTE[k % PALETTE.len()];
+        // side by side within a speed, so that the groups do not hide each other
+        let shift = 1.0 + 0.25 * (k as f64 - 0.5 * (n - 1.0)) / n;
+        let mine: Vec<&super::bpm::StabilityRun> = runs
+            .iter()
+            .filter(|r| r.particle_diameter == *d && r.f0 == *f0)
+            .collect();
+        chart
+            .draw_series(mine.iter().map(|r| {
+                let style = if r.stable {
+                    color.filled()
+                } else {
+                    color.stroke_width(2)
+                };
+                Circle::new((r.wall_velocity * shift, r.time_step), 6, style)
+            }))?
+            .label(format!(
+                "d = {:.2}-{:.2} mm, F0 = {f0} N/m",
+                d[0] * 1e3,
+                d[1] * 1e3
+            ))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}

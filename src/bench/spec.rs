@@ -23,6 +23,8 @@ pub struct BenchSpec {
     #[serde(default)]
     pub mpm_stability: Option<MpmStability>,
     #[serde(default)]
+    pub bpm_stability: Option<BpmStability>,
+    #[serde(default)]
     pub compaction: Option<CompactionFamily>,
     #[serde(default)]
     pub skips: Option<Vec<SkipScene>>,
@@ -154,6 +156,24 @@ pub struct MpmStability {
     pub young: Vec<f64>,
     pub poisson: Vec<f64>,
     pub travel_per_step: Vec<f64>,
+}
+
+/// The BPM stability map: for each particle size range, F0 and plate speed, every time
+/// step (units of t0) is run on one grain; the largest step up to which every run completes
+/// with no particle leaving the grain, its area kept and its force within `accuracy` is marked.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BpmStability {
+    #[serde(default = "bpm_radius")]
+    pub radius: f64,
+    pub final_strain: f64,
+    /// Largest force difference to the smallest step's (relative RMS of the means over five
+    /// strain windows) of a stable run: a grain that fell apart carries no force (1.0).
+    pub accuracy: f64,
+    pub particle_diameter: Vec<[f64; 2]>,
+    pub f0: Vec<f64>,
+    pub wall_velocity: Vec<f64>,
+    pub time_step: Vec<f64>,
 }
 
 /// A reduced BPM packing compacted from `initial_phi` to `final_strain`, inter-grain
@@ -325,14 +345,52 @@ fn check(s: &BenchSpec) -> Result<(), Failure> {
         && s.cd.is_none()
         && s.bpm.is_none()
         && s.mpm_stability.is_none()
+        && s.bpm_stability.is_none()
         && s.compaction.is_none()
         && s.skips.is_none()
     {
         return fail(
             "mpm",
             "".into(),
-            "give at least one family: mpm, cd, bpm, mpm_stability, compaction, skips",
+            "give at least one family: mpm, cd, bpm, mpm_stability, bpm_stability, compaction, skips",
         );
+    }
+    if let Some(m) = &s.bpm_stability {
+        if !(m.final_strain > 0.0 && m.final_strain < 0.6) {
+            return fail(
+                "bpm_stability.final_strain",
+                m.final_strain.to_string(),
+                "must lie in (0, 0.6)",
+            );
+        }
+        positive("bpm_stability.accuracy", m.accuracy)?;
+        for (key, n) in [
+            ("bpm_stability.particle_diameter", m.particle_diameter.len()),
+            ("bpm_stability.f0", m.f0.len()),
+            ("bpm_stability.wall_velocity", m.wall_velocity.len()),
+            ("bpm_stability.time_step", m.time_step.len()),
+        ] {
+            if n == 0 {
+                return fail(key, "[]".into(), "must list at least one value");
+            }
+        }
+        for d in &m.particle_diameter {
+            if !(d[0] > 0.0 && d[1] >= d[0]) || m.radius.is_nan() || m.radius < 2.0 * d[1] {
+                return fail(
+                    "bpm_stability.particle_diameter",
+                    format!("{d:?}"),
+                    "each must be [min, max] with 0 < min <= max <= radius / 2",
+                );
+            }
+        }
+        m.f0.iter()
+            .try_for_each(|&x| positive("bpm_stability.f0", x))?;
+        m.wall_velocity
+            .iter()
+            .try_for_each(|&x| positive("bpm_stability.wall_velocity", x))?;
+        m.time_step
+            .iter()
+            .try_for_each(|&x| positive("bpm_stability.time_step", x))?;
     }
     if let Some(c) = &s.compaction {
         if c.grains < 2 {

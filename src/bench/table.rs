@@ -189,3 +189,33 @@ pub fn stability_csv(runs: &[mpm::StabilityRun]) -> String {
     }
     out
 }
+
+/// `bpm_stability.csv`.
+pub fn bpm_stability_csv(runs: &[super::bpm::StabilityRun]) -> String {
+    let mut out = String::from(
+        "d_min,d_max,f0,wall_velocity,time_step_t0,dt_s,completed,escaped,area_change,stable,largest_stable,force_vs_smallest_step,wall_s,failure\n",
+    );
+    for r in runs {
+        out += &format!(
+            "{:e},{:e},{},{},{},{:.6e},{},{},{:.4e},{},{},{:.4e},{:.4},{}\n",
+            r.particle_diameter[0],
+            r.particle_diameter[1],
+            r.f0,
+            r.wall_velocity,
+            r.time_step,
+            r.dt,
+            r.failure.is_none(),
+            r.escaped,
+            r.area_change,
+            r.stable,
+            r.largest_stable,
+            r.error,
+            r.wall_s,
+            r.failure
+                .as_deref()
+                .unwrap_or("")
+                .replace([',', '\n', '"'], " ")
+        );
+    }
+    out
+}

@@ -50,6 +50,15 @@ pub enum CdError {
         j: usize,
         overlap: f64,
     },
+    #[error(
+        "step {step}: disk {body} is {depth:.3e} m past wall {wall}, more than half its radius: the wall contact has failed (a step far too large?)"
+    )]
+    WallPenetration {
+        step: u64,
+        body: usize,
+        wall: usize,
+        depth: f64,
+    },
 }
 
 /// What one step did.
@@ -228,20 +237,41 @@ impl<L: InteractionLaw> Scene<L> {
                 self.wall_force[w as usize] += (c.p_n * c.n + c.p_t * crate::geom::perp(c.n)) / h;
             }
         }
-        // Guard: a deep overlap means the contact solution has failed; stop before the
-        // state is used or saved. Contacts only ever close to zero gap (METHODS.md §1.4).
+        // Guard: a deep overlap (disk-disk or disk-wall) means the contact solution has
+        // failed; stop before the state is used or saved. Contacts only ever close to zero
+        // gap (METHODS.md §1.4).
         let b = &self.bodies;
         for c in &contacts {
-            if let Partner::Body(j) = c.j {
-                let (i, j) = (c.i as usize, j as usize);
-                let overlap = b.radius[i] + b.radius[j] - (b.pos[i] - b.pos[j]).norm();
-                if overlap > 0.5 * b.radius[i].min(b.radius[j]) {
-                    return Err(CdError::Penetration {
-                        step: self.steps,
-                        i,
-                        j,
-                        overlap,
-                    });
+            let i = c.i as usize;
+            match c.j {
+                Partner::Body(j) => {
+                    let j = j as usize;
+                    let overlap = b.radius[i] + b.radius[j] - (b.pos[i] - b.pos[j]).norm();
+                    if overlap > 0.5 * b.radius[i].min(b.radius[j]) {
+                        return Err(CdError::Penetration {
+                            step: self.steps,
+                            i,
+                            j,
+                            overlap,
+                        });
+                    }
+                }
+                Partner::Wall(w) => {
+                    let wall = &self.walls[w as usize];
+                    // a centre behind the wall has no gap: its depth is r + the distance behind
+                    let depth = wall
+                        .gap(V2::zeros(), b.pos[i], b.radius[i])
+                        .map_or(b.radius[i] - (b.pos[i] - wall.a).dot(&wall.normal()), |g| {
+                            -g.0
+                        });
+                    if depth > 0.5 * b.radius[i] {
+                        return Err(CdError::WallPenetration {
+                            step: self.steps,
+                            body: i,
+                            wall: w as usize,
+                            depth,
+                        });
+                    }
                 }
             }
         }

@@ -75,6 +75,9 @@ pub struct StageCtx {
     pub upstream: Vec<Node>,
     snapshot: PathBuf,
     pub quiet: bool,
+    /// Lets a BPM grain run above the compact stage's 0.5 t0 step limit: only the bench's
+    /// stability map sets it, to find where the scheme really fails.
+    pub beyond_step_limit: bool,
 }
 
 impl StageCtx {
@@ -86,6 +89,7 @@ impl StageCtx {
             dir,
             upstream: Vec::new(),
             quiet: true,
+            beyond_step_limit: false,
         }
     }
 
@@ -194,6 +198,7 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
                 .join("snapshots")
                 .join(node.checkpoint_name().replace(".ckpt", ".snap")),
             quiet: opts.quiet,
+            beyond_step_limit: false,
         };
         std::fs::create_dir_all(&ctx.dir).map_err(io_err(&ctx.dir))?;
         let upstream: Vec<&StageState> = node

@@ -72,7 +72,13 @@ struct Running {
     figures: CompactFigures,
 }
 
-fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running, String> {
+fn new_run(
+    p: &Pipeline,
+    c: &Compact,
+    mu: f64,
+    g: &BpmGrains,
+    beyond_step_limit: bool,
+) -> Result<Running, String> {
     let b = &g.bodies;
     let top_y = (0..b.len())
         .map(|i| b.pos[i].y + b.radius[i])
@@ -106,7 +112,7 @@ fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running,
         BpmLaw::Coulomb { .. } => return Err("the grains carry no cohesive law".into()),
     };
     let dt = c.time_step.unwrap_or(defaults::BPM_STEP * t0);
-    if dt > 0.5 * t0 {
+    if dt > 0.5 * t0 && !beyond_step_limit {
         return Err(format!(
             "compact.time_step = {dt:e} s is above the stability limit of the explicit attraction, 0.5 t0 = {:e} s",
             0.5 * t0
@@ -157,7 +163,7 @@ pub fn run_bpm(
     let c = p.compact.as_ref().expect("planned with a compact section");
     let mut st = match ctx.load_snapshot::<Running>() {
         Some(st) => st,
-        None => new_run(p, c, mu, g)?,
+        None => new_run(p, c, mu, g, ctx.beyond_step_limit)?,
     };
     let cutoff = match g.law {
         BpmLaw::Cohesive { cutoff, .. } => cutoff,
