@@ -160,7 +160,8 @@ pub struct MpmStability {
 
 /// The BPM stability map: for each particle size range, F0 and plate speed, every time
 /// step (units of t0) is run on one grain; the largest step up to which every run completes
-/// with no particle leaving the grain, its area kept and its force within `accuracy` is marked.
+/// with its particles, area and force as at the smallest step (force within `accuracy`) is
+/// marked.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BpmStability {
@@ -168,7 +169,8 @@ pub struct BpmStability {
     pub radius: f64,
     pub final_strain: f64,
     /// Largest force difference to the smallest step's (relative RMS of the means over five
-    /// strain windows) of a stable run: a grain that fell apart carries no force (1.0).
+    /// strain windows) of a stable run: a grain that fell apart carries no force (1.0), and
+    /// two correct runs of a 150-particle grain differ by up to about 0.5 (its scatter).
     pub accuracy: f64,
     pub particle_diameter: Vec<[f64; 2]>,
     pub f0: Vec<f64>,
