@@ -234,3 +234,37 @@ fn two_free_grains_colliding_conserve_momentum() {
     let vx0 = pk.grains[0].momentum().x / pk.grains[0].total_mass();
     assert!(vx0 < 0.8 * v, "grain 0 still at {vx0} m/s");
 }
+
+/// A single grain runs its own driver, not the packing engine (issue #7: "a single grain
+/// uses no packing machinery"; `cargo bench --bench single_grain` times the two). The two
+/// engines solve the same plates-and-grain problem with different contact solvers (an
+/// active set inside Newton, node contacts by NLGS inside the coupling loop), so they must
+/// give the same force at every step, to the packing coupling's 1e-3 (its forces agree
+/// with a fully converged coupling's to that). Against Johnson's solution the driver is
+/// tested in `tests/mpm_single_grain.rs`, at finer grids than this one.
+#[test]
+fn one_grain_in_the_packing_engine_gives_the_single_grain_driver_force() {
+    use softgrain::mpm::Control;
+    use softgrain::mpm::driver::{SingleGrainParams, run_single_grain};
+    let mut p = SingleGrainParams::paper();
+    p.radius = R;
+    p.resolution = 0.1;
+    p.final_strain = 0.05;
+    let single = run_single_grain(p.clone(), |_| Control::Continue).unwrap();
+    let mut pk = Packing::single_grain(&p).unwrap();
+    let mut curve = Vec::new();
+    while pk.strain() < p.final_strain - 1e-12 {
+        pk.step().unwrap();
+        curve.push((pk.strain(), pk.walls[TOP].normal_force()));
+    }
+    // the driver records every step, from the first
+    assert_eq!(curve.len(), single.rows.len(), "same steps");
+    for (&(e, f), row) in curve.iter().zip(&single.rows) {
+        assert!((e - row.strain).abs() < 1e-12, "ε {e} vs {}", row.strain);
+        assert!(
+            (f / row.force_top - 1.0).abs() < 1e-3,
+            "ε = {e:.3}: packing engine {f:.3} vs driver {:.3} N/m",
+            row.force_top
+        );
+    }
+}

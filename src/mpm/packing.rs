@@ -270,6 +270,45 @@ impl Packing {
         })
     }
 
+    /// The single-grain scene of `driver::SingleGrain` (the grain on the floor, the top
+    /// plate at 2R moving down, the same grid cell and step) built in this engine, with
+    /// side walls a radius clear of the grain: what the packing machinery would cost a
+    /// single grain (`benches/single_grain.rs`), and that it gives the same force
+    /// (`tests/mpm_packing.rs`).
+    pub fn single_grain(p: &super::driver::SingleGrainParams) -> Result<Packing, MpmError> {
+        let r = p.radius;
+        let h = 2.0 * r / (1.0 / p.resolution).round().max(4.0);
+        // the centre on a node column, as in the driver's grid
+        let width = 2.0 * (2.0 * r / h).ceil() * h;
+        let params = PackingParams {
+            material: p.material,
+            solver: p.solver.clone(),
+            cell: h,
+            friction: 0.0,
+            wall_friction: p.wall_friction,
+            gravity: 0.0,
+            wall_velocity: p.wall_velocity,
+            travel_per_step: p.travel_per_step,
+            nlgs: NlgsParams::default(),
+        };
+        let mut pk = Packing::new(
+            params,
+            &[Vector2::new(0.5 * width, r)],
+            &[r],
+            width,
+            2.0 * r,
+        )?;
+        if p.quasi_static_start {
+            // the driver's start: the velocity field of a uniform compression
+            let (v, h0) = (p.wall_velocity, pk.h0);
+            let g = &mut pk.grains[0];
+            for (x, vp) in g.x.iter().zip(g.v.iter_mut()) {
+                vp.y = -v * x.y / h0;
+            }
+        }
+        Ok(pk)
+    }
+
     /// Box height `h` (m).
     pub fn height(&self) -> f64 {
         self.walls[TOP].origin.y - self.walls[0].origin.y
