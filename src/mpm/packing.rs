@@ -282,7 +282,7 @@ impl Packing {
         let width = 2.0 * (2.0 * r / h).ceil() * h;
         let params = PackingParams {
             material: p.material,
-            solver: p.solver.clone(),
+            solver: p.solver,
             cell: h,
             friction: 0.0,
             wall_friction: p.wall_friction,
