@@ -168,4 +168,54 @@ mod tests {
         assert!((s1.von_mises() - s0.von_mises()).abs() < 1e-9 * s0.von_mises());
         assert!((s1.xx + s1.yy - s0.xx - s0.yy).abs() < 1e-9 * s0.von_mises());
     }
+
+    /// The linear-elastic law integrates the Jaumann rate, whose simple-shear response is
+    /// not monotone (Dienes 1979): σ_xy = μ sin γ, σ_xx = -σ_yy = μ (1 - cos γ). Past
+    /// γ = π/2 the shear stress falls as the shear grows; the neo-Hookean law stays
+    /// monotone (σ_xy = μ γ). This is why the linear-elastic grain's force drops at large
+    /// strain (`tests/stress.rs`) while the neo-Hookean one does not.
+    #[test]
+    fn the_linear_law_follows_the_jaumann_rate_in_simple_shear() {
+        let lin = Material {
+            kind: MaterialKind::LinearElastic,
+            young: 10e6,
+            poisson: 0.45,
+            density: 990.0,
+        };
+        let nh = Material {
+            kind: MaterialKind::NeoHookean,
+            ..lin
+        };
+        let (_, mu) = lin.lame();
+        let n = 4000;
+        let dg = 3.0 / n as f64;
+        let (mut s, mut f) = (Stress::default(), Matrix2::identity());
+        let mut nh_state = (Stress::default(), Matrix2::identity());
+        for k in 1..=n {
+            // the increment's gradient with respect to the current configuration
+            let l = Matrix2::new(0.0, dg, 0.0, 0.0);
+            let u = lin.update(&s, &f, &l);
+            (s, f) = (u.stress, u.def_grad);
+            let v = nh.update(&nh_state.0, &nh_state.1, &l);
+            nh_state = (v.stress, v.def_grad);
+            let g = k as f64 * dg;
+            if k % 500 == 0 {
+                // first order in the step (the elastic increment is added after the
+                // rotation): the error is below dγ μ to γ = 3 and halves with the step
+                let tol = 2.0 * dg * mu;
+                assert!((s.xy - mu * g.sin()).abs() < tol, "γ = {g}: σ_xy {}", s.xy);
+                assert!(
+                    (s.xx - mu * (1.0 - g.cos())).abs() < tol,
+                    "γ = {g}: σ_xx {}",
+                    s.xx
+                );
+                assert!(
+                    (s.yy + mu * (1.0 - g.cos())).abs() < tol,
+                    "γ = {g}: σ_yy {}",
+                    s.yy
+                );
+                assert!((nh_state.0.xy - mu * g).abs() < 1e-9 * mu, "γ = {g}");
+            }
+        }
+    }
 }
