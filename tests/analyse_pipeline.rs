@@ -144,3 +144,87 @@ fn a_bad_fit_range_is_refused_with_its_key() {
         "{err}"
     );
 }
+
+/// The analyse stage on BPM single grains of two particle-size ranges (Figs. 6 and 7): the
+/// small-strain slope and the plateau σ<a0>/F0 of each case recomputed by hand from its
+/// compact checkpoint, and Fig. 7 written.
+#[test]
+fn analyse_of_bpm_grains_gives_the_plateau_and_slope_of_their_checkpoints() {
+    let dir = common::temp_dir("analyse-bpm");
+    let o = common::softgrain(&[
+        "pipeline",
+        "run",
+        "pipelines/single-grain-bpm.yaml",
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+        "--set",
+        "prepare.radius=1.5e-3",
+        "--set",
+        "discretise.bpm.particle_diameter=[[1.6e-4,2.6e-4],[2.2e-4,2.8e-4]]",
+        "--set",
+        "compact.final_strain=0.15",
+        "--set",
+        "output.vtk=false",
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let out = dir.join("single-grain-bpm");
+    let an = out.join("analyse");
+    for f in [
+        "fig6_single_grain.png",
+        "fig7_bpm_particle_sizes.png",
+        "report.md",
+    ] {
+        assert!(an.join(f).exists(), "analyse/{f} missing");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(an.join("summary.json")).unwrap()).unwrap();
+    let mut checked = 0;
+    for ckpt in common::checkpoints(&out) {
+        let Ok(Some(Ok(StageState::Compacted(c)))) = store::load::<StageState>(&ckpt) else {
+            continue;
+        };
+        let case = summary
+            .as_object()
+            .unwrap()
+            .values()
+            .find(|s| s["particles"].as_u64() == Some(c.final_particles.len() as u64))
+            .expect("a summary for the checkpoint's grain");
+        assert_eq!(case["method"], "bpm");
+        // the single-grain pipeline's analyse ranges: slope on ε <= 0.02, plateau on ε >= 0.1
+        let small: Vec<_> = c
+            .rows
+            .iter()
+            .filter(|r| r.strain > 0.0 && r.strain <= 0.02)
+            .collect();
+        let slope = small.iter().map(|r| r.strain * r.sigma).sum::<f64>()
+            / small.iter().map(|r| r.strain * r.strain).sum::<f64>();
+        let late: Vec<f64> = c
+            .rows
+            .iter()
+            .filter(|r| r.strain >= 0.1)
+            .map(|r| r.sigma)
+            .collect();
+        let plateau_stress = late.iter().sum::<f64>() / late.len() as f64;
+        let fig = &c.figures;
+        let plateau = plateau_stress * fig.mean_a0 / fig.f0;
+        for (key, expected) in [
+            ("small_strain_slope", slope),
+            ("plateau_stress", plateau_stress),
+            ("plateau", plateau),
+        ] {
+            let got = case[key].as_f64().unwrap();
+            assert!(
+                (got - expected).abs() <= 1e-9 * expected.abs(),
+                "{key}: {got} vs {expected}"
+            );
+        }
+        // the compact stage's own plateau figure is the same mean
+        assert!((fig.plateau - plateau).abs() <= 1e-9 * plateau, "{fig:?}");
+        // a plastic plateau of order F0/<a0> (the README's 0.1-0.2 for grains this small)
+        assert!(plateau > 0.05 && plateau < 0.5, "{plateau}");
+        checked += 1;
+    }
+    assert_eq!(checked, 2, "two particle-size cases");
+    let _ = std::fs::remove_dir_all(&dir);
+}
