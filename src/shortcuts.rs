@@ -5,7 +5,7 @@
 //! `SOFTGRAIN_WITHOUT=warm_start,verlet` in the environment turns those shortcuts off for
 //! the whole process; it is read once. A run without a shortcut computes the same thing the
 //! long way: bit for bit for `frictionless` and `verlet`, within the solver tolerance for
-//! `warm_start` (the iterations start elsewhere). It is a measuring switch, not a setting:
+//! `warm_start` (the iterations start elsewhere) and `active_nodes` (a larger system). It is a measuring switch, not a setting:
 //! checkpoints do not record it.
 
 use std::sync::OnceLock;
@@ -25,6 +25,9 @@ pub struct Shortcuts {
     /// CD: the Verlet pair list is kept until a disk has moved half the skin; without it
     /// the cell list is rebuilt every step.
     pub verlet: bool,
+    /// MPM: only the nodes a grain's points reach are numbered, assembled and solved;
+    /// without it every node of the grain's grid (single grain) or window (packing) is.
+    pub active_nodes: bool,
 }
 
 impl Default for Shortcuts {
@@ -33,12 +36,13 @@ impl Default for Shortcuts {
             frictionless: true,
             warm_start: true,
             verlet: true,
+            active_nodes: true,
         }
     }
 }
 
 /// The names `SOFTGRAIN_WITHOUT` accepts.
-pub const NAMES: [&str; 3] = ["frictionless", "warm_start", "verlet"];
+pub const NAMES: [&str; 4] = ["frictionless", "warm_start", "verlet", "active_nodes"];
 
 impl Shortcuts {
     /// Parses a comma-separated list of shortcuts to turn off ("" turns none off).
@@ -49,6 +53,7 @@ impl Shortcuts {
                 "frictionless" => s.frictionless = false,
                 "warm_start" => s.warm_start = false,
                 "verlet" => s.verlet = false,
+                "active_nodes" => s.active_nodes = false,
                 other => {
                     return Err(format!(
                         "{ENV}={list}: unknown shortcut `{other}` (allowed: {})",

@@ -1,8 +1,8 @@
 //! The shortcuts of `src/shortcuts.rs` (issue #7, "skip what a scene does not need") give
 //! the full computation's result: bit for bit where the skipped work cannot change a number
 //! (the tangential solve of frictionless contacts, the Verlet list, the thread count), and
-//! where the shortcut changes the solver's path (the warm start) within the Newton tolerance
-//! (MPM) or the run's own fluctuations (BPM). Their speed-ups are measured by
+//! where the shortcut changes the solver's path (the warm start, the MPM system's size)
+//! within the Newton tolerance (MPM) or the run's own fluctuations (BPM). Their speed-ups are measured by
 //! `softgrain bench pipelines/bench.yaml` (section `skips`), not here.
 
 mod common;
@@ -147,6 +147,17 @@ fn a_frictional_bpm_packing_is_bit_identical_without_the_exact_shortcuts() {
 
 #[test]
 fn the_mpm_warm_start_changes_the_force_by_less_than_the_newton_tolerance() {
+    assert_mpm_force_within_newton_tolerance("warm_start");
+}
+
+#[test]
+fn solving_every_grid_node_changes_the_mpm_force_by_less_than_the_newton_tolerance() {
+    assert_mpm_force_within_newton_tolerance("active_nodes");
+}
+
+/// A small MPM grain with every shortcut and without `without`: the same steps, and
+/// forces equal to the Newton tolerance.
+fn assert_mpm_force_within_newton_tolerance(without: &str) {
     let file = pipeline("single-grain-mpm.yaml");
     let sets = [
         "discretise.mpm.resolution=0.1",
@@ -155,8 +166,8 @@ fn the_mpm_warm_start_changes_the_force_by_less_than_the_newton_tolerance() {
         "analyse=null",
     ];
     let (a, b) = (
-        run("skip-mpm-ref", &file, &sets, "", 2),
-        run("skip-mpm-cold", &file, &sets, "warm_start", 2),
+        run(&format!("skip-mpm-ref-{without}"), &file, &sets, "", 2),
+        run(&format!("skip-mpm-{without}"), &file, &sets, without, 2),
     );
     let (fa, fb) = (series(&a), series(&b));
     let (ra, rb) = (column(&fa[0].1, "force"), column(&fb[0].1, "force"));

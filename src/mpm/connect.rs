@@ -125,7 +125,7 @@ impl Connectivity {
         self.grp_pts_off.push(np);
 
         // Active nodes: every node left in a stencil (light ones were dropped above),
-        // numbered in grid order.
+        // numbered in grid order (`shortcuts::Shortcuts::active_nodes`).
         if self.node_map.len() != grid.node_count() {
             self.node_map = vec![usize::MAX; grid.node_count()];
         } else {
@@ -134,9 +134,15 @@ impl Connectivity {
             }
         }
         self.act_grid.clear();
-        self.act_grid.extend_from_slice(&self.grp_nodes);
-        self.act_grid.sort_unstable();
-        self.act_grid.dedup();
+        if crate::shortcuts::get().active_nodes {
+            self.act_grid.extend_from_slice(&self.grp_nodes);
+            self.act_grid.sort_unstable();
+            self.act_grid.dedup();
+        } else {
+            // every node of the grid: the empty ones carry no mass or stiffness, only
+            // the solver's diagonal shift, and get a zero increment
+            self.act_grid.extend(0..grid.node_count());
+        }
         for (i, &g) in self.act_grid.iter().enumerate() {
             self.node_map[g] = i;
         }

@@ -483,8 +483,11 @@ impl Solver {
             }
         }
         for i in 0..n {
-            self.vn[i] /= self.m[i];
-            self.an[i] /= self.m[i];
+            // an empty node (numbered only without the `active_nodes` shortcut) stays at rest
+            if self.m[i] > 0.0 {
+                self.vn[i] /= self.m[i];
+                self.an[i] /= self.m[i];
+            }
         }
         self.conn
             .average(&self.conn.pt_g0, &points.vol, &mut self.dbar0);
