@@ -230,7 +230,7 @@ fn a_failed_step_is_redone_in_halves() {
     assert_eq!(base.stats.halvings, 0);
     // Too few Newton iterations for a full step, enough for half steps.
     let mut p = params(0.08, 0.021);
-    p.solver.newton.max_iterations = 3;
+    p.solver.newton.max_iterations = 4;
     let out = run_single_grain(p, |_| Control::Continue).unwrap();
     assert!(out.stats.halvings > 0);
     assert_eq!(out.rows.len(), base.rows.len());

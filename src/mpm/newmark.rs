@@ -57,8 +57,44 @@ impl Newmark {
         v + (a * (1.0 - self.gamma) + a_new * self.gamma) * dt
     }
 
+    /// `v^{n+1}` is linear in the increment: `v^{n+1} = rate · u + offset`, with
+    /// `rate = γ/(β Δt)` (`2/Δt` for the trapezoidal rule).
+    pub fn velocity_rate(&self, dt: f64) -> f64 {
+        self.gamma / (self.beta * dt)
+    }
+
+    /// The `offset` of `velocity_rate`: `v^n (1 - γ/β) + Δt a^n (1 - γ - γ(1 - 2β)/(2β))`
+    /// (`-v^n` for the trapezoidal rule).
+    pub fn velocity_offset(&self, v: Vector2<f64>, a: Vector2<f64>, dt: f64) -> Vector2<f64> {
+        let (b, g) = (self.beta, self.gamma);
+        v * (1.0 - g / b) + a * (dt * (1.0 - g - g * (1.0 - 2.0 * b) / (2.0 * b)))
+    }
+
     /// Predictor with unchanged acceleration: `u = Δt v + Δt²/2 a`.
     pub fn predictor(&self, v: Vector2<f64>, a: Vector2<f64>, dt: f64) -> Vector2<f64> {
         v * dt + a * (0.5 * dt * dt)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_end_of_step_velocity_is_rate_times_increment_plus_offset() {
+        let (v, a, u, dt) = (
+            Vector2::new(0.3, -1.2),
+            Vector2::new(40.0, 7.0),
+            Vector2::new(2e-5, 1e-5),
+            1e-4,
+        );
+        for nm in [Newmark::default(), Newmark::damped(0.6)] {
+            let direct = nm.velocity(v, a, nm.accel(u, v, a, dt), dt);
+            let linear = u * nm.velocity_rate(dt) + nm.velocity_offset(v, a, dt);
+            assert!((direct - linear).norm() < 1e-12 * direct.norm(), "{nm:?}");
+        }
+        // the trapezoidal rule: v^{n+1} = 2u/Δt - v^n
+        let nm = Newmark::default();
+        assert_eq!(nm.velocity_offset(v, a, dt), -v);
     }
 }

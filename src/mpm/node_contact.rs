@@ -18,13 +18,26 @@
 //!   `g = min_α (x_p·n - l_p(-n)) - max_β (x_q·n + l_q(n))`, with `l_p(n)` the support
 //!   `√((n_x l_x)² + (n_y l_y)²)` of the ellipse on the point's reaches toward the contact
 //!   (`Points::reach`: `Δr/2` clipped by the seeded circle and stretched with `F`).
-//! * **Law**, written on the displacement increment `u` of the step (the relative
-//!   displacement `d = u^α - u^β`, walls `u^β = Δt V_w`): Signorini on the end-of-step
-//!   gap with overlaps left alone, `max(g, 0) + d·n >= 0 ⊥ f_n >= 0` (as for the single
-//!   grain's plates), and Coulomb on the slip increment `d·t`. With the lumped-mass
-//!   compliance `W = β Δt² (1/m^α + 1/m^β)` this is Eq. 11–12 of the paper (the relation
-//!   `f = (2/Δt) m* (v - v_free)` times `Δt/2`); here `W` is the condensed compliance of
-//!   the implicit grain, `[K_eff^α]^{-1} + [K_eff^β]^{-1}` on the contact DOFs (METHODS §4.4B).
+//! * **Law** between grains, the paper's (Eqs. 11–12, METHODS §4.3): on the end-of-step
+//!   relative velocity `v = v^α - v^β` with restitution 0, velocity Signorini with gap
+//!   anticipation `v·n + max(g, 0)/Δt >= 0 ⊥ f_n >= 0` and Coulomb on `v·t`. Newmark
+//!   makes `v` linear in the relative displacement increment `d = u^α - u^β`:
+//!   `v = k (d + s)` with `k = γ/(βΔt)` and a per-contact shift `s` from the start-of-step
+//!   nodal velocities and accelerations, so the NLGS works on `d + s`. With the
+//!   lumped-mass compliance `W = β Δt² (1/m^α + 1/m^β)` this is the paper's
+//!   `f = (2/Δt) m* (v - v_free)` times `Δt/2`; here `W` is the condensed compliance of
+//!   the implicit grain, `[K_eff^α]^{-1} + [K_eff^β]^{-1}` on the contact DOFs (METHODS
+//!   §4.4B). Why not the end-of-step gap (`d·n + max(g, 0) >= 0`, used before): with the
+//!   trapezoidal rule a node stopped in position leaves the step at
+//!   `v^{n+1} = 2u/Δt - v^n = -v^n`, an elastic rebound at every impact, and the FLIP
+//!   transfer to the points pumped energy into colliding grains (two grains meeting at
+//!   1.5 m/s left with 1.4 times their kinetic energy, `tests/mpm_packing.rs`).
+//! * **Law** on walls: the end-of-step gap, `d·n + max(g, 0) >= 0` with
+//!   `d = u^α - Δt V_w` (shift `s = -Δt V_w`), and Coulomb on the slip increment, as for
+//!   the single grain's plates. A wall moves steadily and is where σ is measured: the
+//!   velocity law there lets the contact nodes drift with the ringing of `v^n` and the
+//!   plate force alternated by ±10 % from step to step on one grain, where the position
+//!   law matches the single-grain driver to 1e-3 (`tests/mpm_packing.rs`).
 //! * **NLGS.** Each contact's local problem uses its diagonal 2×2 block of `W` (projection
 //!   of `f_n`, then of `f_t` onto `[-μ f_n, μ f_n]` with the normal–tangential coupling),
 //!   and pushes its force change into the slot displacements of both grains through the
@@ -34,6 +47,7 @@
 
 use super::contact::{self as plate, Wall};
 use super::grid::Grid;
+use super::newmark::Newmark;
 use super::points::Points;
 use super::solve::Solver;
 use nalgebra::{Matrix2, Vector2};
@@ -61,8 +75,13 @@ pub struct NodeContact {
     pub normal: Vector2<f64>,
     /// Point-cloud gap at the start of the step (m).
     pub gap: f64,
-    /// A wall partner's displacement over the step, `Δt V_w` (m).
-    pub wall_disp: Vector2<f64>,
+    /// Shift `s` of the law, which holds on `d + s` (m): between grains `(c^α - c^β)/k`
+    /// with `c` the part of a node's end-of-step velocity not due to its increment
+    /// (`Newmark::velocity_offset`), so that `d + s = v/k`; on a wall `-Δt V_w`.
+    pub shift: Vector2<f64>,
+    /// The approach the gap allows over the step (m): `max(g, 0)/(k Δt)` between grains,
+    /// `max(g, 0)` on a wall.
+    pub open: f64,
     pub friction: f64,
     /// Normal and tangential force on `a` (N/m), `t = (-n_y, n_x)`; the partner feels
     /// the opposite.
@@ -167,19 +186,27 @@ fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
 
 /// Finds this step's node contacts (grain pairs first, ordered by node, then walls by grain)
 /// and numbers each grain's contact slots. `friction` is the inter-grain coefficient;
-/// walls carry their own. `alert` drops candidates with a larger gap.
+/// walls carry their own. `alert` drops candidates with a larger gap. `nm` and `dt` set
+/// each contact's velocity law.
 #[allow(clippy::too_many_arguments)]
 pub fn detect(
     grid: &Grid,
     grains: &[GrainView],
     walls: &[Wall],
     friction: f64,
+    nm: Newmark,
     dt: f64,
     alert: f64,
     out: &mut Vec<NodeContact>,
     slots: &mut Vec<Slots>,
 ) {
     out.clear();
+    let k = nm.velocity_rate(dt);
+    // `c / k` at a grain's active node
+    let free = |g: usize, i: usize| {
+        let s = grains[g].solver;
+        nm.velocity_offset(s.node_velocity()[i], s.node_acceleration()[i], dt) / k
+    };
     // Every (common node, grain, active index), sorted by node then grain.
     let mut entries: Vec<(usize, usize, usize)> = Vec::new();
     for (g, v) in grains.iter().enumerate() {
@@ -271,7 +298,8 @@ pub fn detect(
                 slot_b: ib,
                 normal: n,
                 gap,
-                wall_disp: Vector2::zeros(),
+                shift: free(ga, ia) - free(gb, ib),
+                open: gap.max(0.0) / (k * dt),
                 friction,
                 force_n: 0.0,
                 force_t: 0.0,
@@ -308,7 +336,9 @@ pub fn detect(
                 slot_b: 0,
                 normal: w.normal,
                 gap: c.gap,
-                wall_disp: w.velocity * dt,
+                // position law (see the module doc): `d = u^α - Δt V_w`
+                shift: -w.velocity * dt,
+                open: c.gap.max(0.0),
                 friction: w.friction,
                 force_n: 0.0,
                 force_t: 0.0,
@@ -413,11 +443,13 @@ pub fn nlgs(
                     w += slots[b].block(c.slot_b, c.slot_b);
                     slots[b].disp(c.slot_b)
                 }
-                Partner::Wall(_) => c.wall_disp,
+                Partner::Wall(_) => Vector2::zeros(),
             };
-            let d = ua - ub;
+            // grains: the end-of-step relative velocity over k; walls: the increment
+            // relative to the wall's
+            let d = ua - ub + c.shift;
             let (wn, wt, wtn) = (n.dot(&(w * n)), t.dot(&(w * t)), t.dot(&(w * n)));
-            let fn_new = (c.force_n - (d.dot(&n) + c.gap.max(0.0)) / wn).max(0.0);
+            let fn_new = (c.force_n - (d.dot(&n) + c.open) / wn).max(0.0);
             let ft_new = if c.friction > 0.0 {
                 let slip = d.dot(&t) + wtn * (fn_new - c.force_n);
                 let bound = c.friction * fn_new;

@@ -39,8 +39,8 @@
 //!   rescaled to `π R²` (as for the single grain).
 //! * **Contact nodes, normal, gap, law**: see `super::node_contact` (nodes where two grains
 //!   have non-light mass, one contact per pair; mass-gradient normals; point-cloud gap in a
-//!   strip of one cell; Signorini on the end-of-step gap with overlaps left alone; Coulomb
-//!   on the slip increment of the step; alert distance `h_g`). Walls: infinite mass,
+//!   strip of one cell; the paper's velocity Signorini and Coulomb with restitution 0 and
+//!   gap anticipation, overlaps left alone; alert distance `h_g`). Walls: infinite mass,
 //!   frictionless by default, detected as for the single grain's plates.
 //! * **Warm start** of the node forces by (common node, grain, partner).
 //! * **Start**: grains at rest in the unjammed layout, no quasi-static velocity field (they
@@ -49,17 +49,22 @@
 //!   where a grain's surface is coarse: 0.06–0.08 h_g for two grains of R = 5 cells, up to
 //!   0.44 h_g in the wedge of three grains of R = 3.3 cells at 5 % strain (tests). Seeded
 //!   disks that touch in the deposit already show −0.2 to −0.3 h_g.
-//! * **Open problem** (`pipelines/mpm-packing-small.yaml`, 16 grains, Δr/R = 0.12): up to
-//!   ε ≈ 0.2 Φ follows Φ0 e^ε with Σ v_p within 1 % and overlaps below 0.3 h_g; beyond,
-//!   without friction Σ v_p *grows* (+13 % at ε = 0.27, +18 % at 0.35) while the clouds
-//!   overlap by up to 4 h_g and the coupling takes 26–28 iterations per step; with
-//!   μ = 0.5 Σ v_p stays within 0.7 % but the overlap reaches 1.8 h_g at ε = 0.35. Not
-//!   resolved; suspects: nodes shared by several grains constraining along inconsistent
-//!   normals, and the overlap never being pushed back (`max(g, 0)`). Tried: removing 30 %
-//!   of an overlap (capped at 0.5 h_g) per step; on 12 grains with μ = 0.5 to ε = 0.3 the
-//!   worst overlap fell from 1.34 to 0.60 h_g but Σ v_p grew by 1.3 % (pushed-apart grains
-//!   stretch), σ rose 70 % and the coupling took 11.8 instead of 8 iterations per step;
-//!   not kept.
+//! * **Open problem** (`pipelines/mpm-packing-small.yaml`, 16 grains, Δr/R = 0.12, to
+//!   ε = 0.3): the point clouds overlap. The worst node gap reaches -1.8 h_g without
+//!   friction and -1.2 h_g with μ = 0.5, and 4.3 % and 2.5 % of the grains' area lie under
+//!   two grains. Σ v_p stays within 0.2 % and 0.7 %. Overlaps grow in bursts when two
+//!   grains approach at 0.3–0.8 m/s. The nodes in the middle of their contact hold, but
+//!   two kinds of node do not: those at the contact's edges, whose mass gradients lie
+//!   more than 60° from opposite and are skipped, and those where one grain has almost no
+//!   mass (1e-4 of the other's), which constrain only that grain's empty field.
+//!   - Tried: one normal per pair (the gradients summed over the pair's nodes, so the
+//!     edge nodes are held too). The overlap grew to 6.4 % of the area; not kept.
+//!   - Tried before: pushing back 30 % of an overlap per step, with the earlier
+//!     position law. The overlap halved, but σ rose 70 %.
+//!   - Fixed: two defects that had made it far worse. The position law between grains
+//!     pumped energy (`super::node_contact`). The linear-elastic law saw no strain in a
+//!     linearised rotation, so rocking grains swelled by 15 % (`super::material`). The
+//!     coupling now takes 5–9 iterations per step instead of 22–28.
 //!
 //! # Cost (measured, one thread, 30 grains from Φ0 = 0.672 to ε = 0.02, μ = 0.5, Z ≈ 2)
 //! | Δr/R | points | steps | CPU s/step | ms per grain-step | peak RSS |
@@ -437,6 +442,7 @@ impl Packing {
                 &views,
                 &self.walls,
                 p.friction,
+                p.solver.newmark,
                 dt,
                 grid.h,
                 &mut ws.contacts,

@@ -374,6 +374,15 @@ impl Solver {
     }
 
     /// `Σ_p m_p ∇S_ip` at the start of the step, per active node.
+    /// Nodal velocities and accelerations of the start of the step (P2G).
+    pub fn node_velocity(&self) -> &[Vector2<f64>] {
+        &self.vn
+    }
+
+    pub fn node_acceleration(&self) -> &[Vector2<f64>] {
+        &self.an
+    }
+
     pub fn mass_gradient(&self) -> &[Vector2<f64>] {
         &self.mgrad
     }
