@@ -1,7 +1,10 @@
 //! Refinement study of the single MPM grain against Johnson's 2D solution and Eq. 13.
 //!
 //! `cargo run --release --example mpm_convergence -- [resolutions] [shape] [bbar] [final_strain]
-//! [travel_per_step] [material]`, e.g. `-- 0.08,0.04,0.029 bilinear on 0.05 0.05 neohookean`.
+//! [travel_per_step] [material] [poisson]`, e.g.
+//! `-- 0.08,0.04,0.029 bilinear on 0.05 0.05 neohookean 0.3`. A Poisson ratio other than the
+//! paper's 0.45 keeps E* = E/(1-ν²) at the paper's value (the FE reference's comparison,
+//! `bench/disk-fe-reference.md`).
 //! Prints a table; nothing is written.
 
 use softgrain::mpm::analytic::{eq13_force, johnson_force};
@@ -47,8 +50,9 @@ fn main() {
         Some("neohookean") => MaterialKind::NeoHookean,
         _ => MaterialKind::LinearElastic,
     };
+    let poisson: Option<f64> = args.get(7).map(|s| s.parse().expect("poisson"));
     println!(
-        "shape {shape:?}, B-bar {bbar}, final strain {final_strain}, travel/step {travel} h_g"
+        "shape {shape:?}, B-bar {bbar}, final strain {final_strain}, travel/step {travel} h_g, {kind:?}, ν {poisson:?}"
     );
     println!(
         "{:>6} {:>6} {:>5} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>6} {:>6} {:>5} {:>8} {:>8}",
@@ -75,6 +79,11 @@ fn main() {
         p.final_strain = final_strain;
         p.travel_per_step = travel;
         p.material.kind = kind;
+        if let Some(nu) = poisson {
+            let m = &mut p.material;
+            m.young *= (1.0 - nu * nu) / (1.0 - m.poisson * m.poisson);
+            m.poisson = nu;
+        }
         let (e, nu, rad) = (p.material.young, p.material.poisson, p.radius);
         match run_single_grain(p, |_| Control::Continue) {
             Ok(out) => {
