@@ -24,7 +24,7 @@ Model
                      (the LBB-stable Q2/P1 pair), pressure condensed per element:
                      K = int B^T D_dev B + kappa G^T M^-1 G.  Used as the locking check.
 * Small-strain contact (Signorini, frictionless, node-to-plate): for every rim node in
-  0 <= psi <= 0.32 rad the constraint is u_y <= y_plate - Y.  K (symmetry BCs only) is
+  0 <= psi <= 0.25 rad the constraint is u_y <= y_plate - Y.  K (symmetry BCs only) is
   non-singular, so the problem is reduced exactly to the candidate nodes with the
   compliance matrix Cm = S K^-1 S^T (one sparse factorisation, m solves).  The remaining
   LCP  lam >= 0, gap = Cm lam - d >= 0, lam.gap = 0  (lam = downward nodal contact forces,
@@ -44,10 +44,19 @@ Model
   prescribed Hertz pressure on two small opposite arcs: centre stresses against the
   point-load disk values sigma_x = F/(pi R), sigma_y = -3F/(pi R), and the change of the
   vertical diameter against Johnson's (A) with the Michell-series correction
-  (C_nu = 1/3) from bench/disk-contact-nu.md.
+  (C_nu = 1/3) from bench/disk-contact-nu.md.  The pressure is applied either normal to
+  the circle (the .md's set-up) or vertically (what a frictionless flat plate does).
+* Why the linear flat-plate result has no nu at fixed E* (see disk-fe-reference.md): in
+  plane strain eps = [sigma + k (sigma - tr(sigma) I)]/E*, k = nu/(1-nu), and with the Airy
+  function phi, sigma - tr(sigma) I = -grad grad phi.  Stresses of a traction problem on a
+  simply connected body do not depend on nu, so the nu part of u is -(k/E*) grad phi.  If
+  every boundary traction is vertical (t_x = 0), phi_y is constant along the boundary and
+  the nu part of u_y there is a rigid shift: the contact problem is nu-free exactly.
+* Side calculation: plates with full stick (infinite friction), linear, incremental.
 
 Units: mm, MPa, N/mm (x 1000 = N/m).  Run:  python3 bench/disk_fe_reference.py [--fine]
-(--fine adds the n_b = 80 mesh to the linear study; needs ~4 GB and a few minutes more).
+(--fine adds the n_b = 80 mesh, Q9 only, to the linear study and a level-3 neo-Hookean
+ check: ~6 GB of RAM, ~10 min in all).
 """
 import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -66,7 +75,7 @@ ESTAR = 10.0 / (1.0 - 0.45 ** 2)          # MPa, fixed plane-strain modulus
 NUS = (0.30, 0.40, 0.45, 0.49)
 EPSS = (0.02, 0.05)
 B_REF = 0.114 * R                         # contact half-width at eps = 0.02 (mesh sizing)
-PSI_CAND = 0.32                           # candidate contact nodes: psi <= this (rad)
+PSI_CAND = 0.25                           # candidate contact nodes: psi <= this (rad)
 
 
 def approach(eps):
@@ -289,13 +298,17 @@ class LinearContact:
         self.free = free
         self.lu = spla.splu(K[free][:, free].tocsc(), permc_spec="MMD_AT_PLUS_A",
                             diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+        del K
         pos = np.full(mesh.ndof, -1)
         pos[free] = np.arange(len(free))
         self.cpos = pos[mesh.cand_dof]
-        rhs = np.zeros((len(free), len(self.cpos)))
-        rhs[self.cpos, np.arange(len(self.cpos))] = 1.0
-        self.Kinv_ST = self.lu.solve(rhs)                      # K^-1 S^T (free dofs)
-        Cm = self.Kinv_ST[self.cpos]
+        m = len(self.cpos)
+        Cm = np.empty((m, m))
+        for c0 in range(0, m, 64):                            # Cm = S K^-1 S^T, in chunks
+            c1 = min(m, c0 + 64)
+            rhs = np.zeros((len(free), c1 - c0))
+            rhs[self.cpos[c0:c1], np.arange(c1 - c0)] = 1.0
+            Cm[:, c0:c1] = self.lu.solve(rhs)[self.cpos]
         self.Cm = 0.5 * (Cm + Cm.T)
         self.Lc = np.linalg.cholesky(self.Cm)
 
@@ -305,9 +318,12 @@ class LinearContact:
         lam_c, _ = nnls(self.Lc.T, np.linalg.solve(self.Lc, d), maxiter=50 * len(d))
         gap = self.Cm @ lam_c - d
         assert gap.min() > -1e-9 * delta, gap.min()
-        u = np.zeros(m.ndof)
-        u[self.free] = -self.Kinv_ST @ lam_c
         act = lam_c > 0
+        assert not act[-1], "contact reached the last candidate node: raise PSI_CAND"
+        rhs = np.zeros(len(self.free))
+        rhs[self.cpos] = -lam_c
+        u = np.zeros(m.ndof)
+        u[self.free] = self.lu.solve(rhs)
         return dict(F=2 * lam_c.sum(), lam=lam_c, u=u, active=act,
                     b=contact_width(m, act))
 
@@ -340,6 +356,7 @@ def nonlinear_contact(mesh, nu, delta, model, u0, act0, tol=1e-10, maxit=40):
         free = np.setdiff1d(np.arange(mesh.ndof), fixed)
         res = np.linalg.norm(fint[free])
         if it > 0 and not changed and res < tol * fref:
+            assert not act[-1], "contact reached the last candidate node: raise PSI_CAND"
             return dict(F=2 * lam_c[act].sum(), u=u, active=act, it=it,
                         b=contact_width(mesh, act))
         du = np.zeros(mesh.ndof)
@@ -354,6 +371,8 @@ def nonlinear_contact(mesh, nu, delta, model, u0, act0, tol=1e-10, maxit=40):
                 break
             except FloatingPointError:
                 step *= 0.5
+                if step < 1e-6:
+                    raise RuntimeError("Newton step cannot keep J > 0")
         u = u + step * du
     raise RuntimeError(f"Newton did not converge (nu={nu}, model={model}, res={res:.2e})")
 
@@ -364,6 +383,55 @@ def element_arrays_J_check(mesh, u):
     J = Fd[..., 0, 0] * Fd[..., 1, 1] - Fd[..., 0, 1] * Fd[..., 1, 0]
     if np.any(J <= 0):
         raise FloatingPointError
+
+
+# ----------------------------------------------------------------------------- sensitivity: stick
+def linear_full_stick(mesh, nu, eps_out=EPSS, nstep=250):
+    """Side calculation (not the frictionless reference): plates with infinite friction.
+    Linear elasticity, loading in nstep increments of eps up to max(eps_out).  A node that
+    touches the plate keeps the u_x it had when it touched (no slip), and u_y = plate - Y;
+    released if its normal reaction becomes tensile.  Solved on the candidate nodes with the
+    compliance matrix of their x and y dofs.  Returns {eps: F}."""
+    K = mesh.assemble(linear_stiffness(mesh, nu, "Q9"))
+    free = np.setdiff1d(np.arange(mesh.ndof), mesh.fixed)
+    lu = spla.splu(K[free][:, free].tocsc(), permc_spec="MMD_AT_PLUS_A",
+                   diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+    pos = np.full(mesh.ndof, -1)
+    pos[free] = np.arange(len(free))
+    okx = pos[2 * mesh.cand] >= 0                             # the x = 0 node has u_x = 0 already
+    nx, m = int(okx.sum()), len(mesh.cand)
+    cp = pos[np.concatenate([2 * mesh.cand[okx], 2 * mesh.cand + 1])]
+    rhs = np.zeros((len(free), len(cp)))
+    rhs[cp, np.arange(len(cp))] = 1.0
+    Cm = lu.solve(rhs)[cp]
+    Cm = 0.5 * (Cm + Cm.T)
+    xi = np.full(m, -1)
+    xi[okx] = np.arange(nx)
+    act, uxf, out = np.zeros(m, bool), np.zeros(m), {}
+    emax = max(eps_out)
+    for k in range(1, nstep + 1):
+        e = emax * k / nstep
+        g = (R - 0.5 * approach(e)) - mesh.cand_Y
+        for _ in range(100):
+            ia = np.nonzero(act)[0]
+            ix = ia[xi[ia] >= 0]
+            rows = np.concatenate([nx + ia, xi[ix]]).astype(int)
+            r = np.zeros(len(cp))
+            if len(rows):
+                r[rows] = np.linalg.solve(Cm[np.ix_(rows, rows)], np.concatenate([g[ia], uxf[ix]]))
+            uc = Cm @ r
+            new = act & (r[nx:] <= 0)
+            ent = ~act & (uc[nx:] > g + 1e-14)
+            if not ent.any() and np.array_equal(new, act):
+                break
+            ent_x = ent & okx
+            uxf[ent_x] = uc[xi[ent_x]]
+            act = new | ent
+        assert not act[-1]
+        for eo in eps_out:
+            if abs(e - eo) < 1e-12:
+                out[eo] = -2 * r[nx:].sum()
+    return out
 
 
 # ----------------------------------------------------------------------------- validation
@@ -381,32 +449,35 @@ def validate():
     rim = mesh.rim
     err = np.max(np.abs(np.hypot(*(mesh.X[rim] + u.reshape(-1, 2)[rim]).T) - R - ur)) / abs(ur)
     out.append(f"  (a) uniform rim pressure, nu=0.3, coarse mesh: max |u_r - exact|/|u_r| = {err:.1e}")
-    # (b) prescribed Hertz pressure on two opposite arcs of half-width b (normal traction)
-    out.append("  (b) Hertz pressure prescribed on the two arcs (F = 1 N/mm), mesh n_b = 20 across b:")
-    out.append("      b/R    nu   sx(0)/(F/piR)  sy(0)/(-3F/piR)  delta_FE/delta_Michell(C=1/3)  delta_FE/delta_Johnson")
+    # (b) prescribed Hertz pressure on two opposite arcs of half-width b.  "radial": normal to
+    # the undeformed circle (the Michell-series set-up of disk-contact-nu.md); "vertical": the
+    # same p(x) per unit horizontal length but acting along the plate normal (t_x = 0), which
+    # is the direction a frictionless flat plate actually pushes.
+    out.append("  (b) Hertz pressure p(x) = p0 sqrt(1 - x^2/b^2) prescribed on the two arcs, Q2P1, n_b = 20:")
+    out.append("      b/R   traction  nu   sx(0)/(F/piR) sy(0)/(-3F/piR)  delta/Michell(C=1/3)  delta/Johnson")
     for bR in (0.03, 0.114):
         b = bR * R
         mesh = Mesh(2, b_ref=b, psi_unif=max(2 * bR, 0.06), depth_unif=max(0.5 * b, 0.02 * R))
-        Fp = 1.0
-        p0 = 2 * Fp / (np.pi * b)
+        p0 = 2.0 / (np.pi * b)
         prof = lambda psi: p0 * np.sqrt(np.clip(1 - (R * np.sin(psi) / b) ** 2, 0, None))
         for nu in (0.3, 0.49):
             K = mesh.assemble(linear_stiffness(mesh, nu, "Q2P1"))
-            f = rim_traction(mesh, prof, -1.0)
-            Fq = -f[1::2].sum()                               # load on the quarter (half of F)
-            u = solve_fixed(mesh, K, f)
-            delta = -2 * u[2 * mesh.rim[0] + 1]
-            sx, sy = centre_stress(mesh, u, nu)
-            Ftot = 2 * Fq
-            out.append(f"      {bR:5.3f} {nu:5.2f}  {sx / (Ftot / (np.pi * R)):.4f}         "
-                       f"{sy / (-3 * Ftot / (np.pi * R)):.4f}           "
-                       f"{delta / michell_delta(Ftot, nu, b=b):.5f}                       "
-                       f"{delta / johnson_delta(Ftot, b=b):.5f}")
+            for direction in ("radial", "vertical"):
+                f = rim_traction(mesh, prof, -1.0, vertical=(direction == "vertical"))
+                Ftot = -2 * f[1::2].sum()                     # the quarter carries half of F
+                u = solve_fixed(mesh, K, f)
+                delta = -2 * u[2 * mesh.rim[0] + 1]
+                sx, sy = centre_stress(mesh, u, nu)
+                out.append(f"      {bR:5.3f} {direction:8s} {nu:5.2f}  {sx / (Ftot / (np.pi * R)):.4f}"
+                           f"        {sy / (-3 * Ftot / (np.pi * R)):.4f}         "
+                           f"{delta / michell_delta(Ftot, nu, b=b):.5f}            "
+                           f"{delta / johnson_delta(Ftot, b=b):.5f}")
     return out
 
 
-def rim_traction(mesh, p_of_psi, sign):
-    """Consistent nodal forces of a normal rim pressure p(psi) (sign -1: pushing inwards)."""
+def rim_traction(mesh, p_of_psi, sign, vertical=False):
+    """Consistent nodal forces of a rim pressure p(psi) (sign -1: pushing inwards), normal to
+    the circle, or (vertical=True) p per unit horizontal length acting along -y."""
     f = np.zeros(mesh.ndof)
     g, w = np.polynomial.legendre.leggauss(12)
     P = mesh.rim_psi
@@ -419,7 +490,8 @@ def rim_traction(mesh, p_of_psi, sign):
         ds = R * 0.5 * (c - a) * w
         pr = p_of_psi(psi)
         for i, node in enumerate(mesh.rim[k:k + 3]):
-            f[2 * node] += sign * np.sum(Nl[:, i] * pr * np.sin(psi) * ds)
+            if not vertical:
+                f[2 * node] += sign * np.sum(Nl[:, i] * pr * np.sin(psi) * ds)
             f[2 * node + 1] += sign * np.sum(Nl[:, i] * pr * np.cos(psi) * ds)
     return f
 
@@ -446,10 +518,11 @@ def centre_stress(mesh, u, nu):
 
 # ----------------------------------------------------------------------------- studies
 def richardson(f1, f2, f3):
-    """Order from three nested meshes and the extrapolated value from the two finest."""
+    """Observed order from three nested meshes and the extrapolated value from the two finest;
+    (nan, finest) when the differences are not monotone (contact-edge quantisation noise)."""
     d1, d2 = f1 - f2, f2 - f3
-    if d1 * d2 <= 0 or abs(d2) < 1e-15 * abs(f3):
-        return np.nan, f3 + 0.0 * d2
+    if d1 * d2 <= 0 or abs(d1) <= abs(d2):
+        return np.nan, f3
     p = np.log2(d1 / d2)
     return p, f3 - d2 / (2 ** p - 1)
 
@@ -476,37 +549,41 @@ def main():
     lin = {}
     for L in levels:
         mesh = Mesh(L)
-        meshes[L] = mesh
+        if L <= 2:
+            meshes[L] = mesh
         for el in ("Q9", "Q2P1"):
             for nu in NUS:
-                if el == "Q2P1" and L == 4 and nu not in (0.30, 0.45, 0.49):
+                if el == "Q2P1" and L == 4:                   # Q9 = Q2P1 to 1e-5 on level 3
                     continue
                 lc = LinearContact(mesh, nu, el)
                 rs = [lc.solve(approach(e)) for e in EPSS]
                 for e, r in zip(EPSS, rs):
+                    if L > 2:
+                        r.pop("u")
                     lin[(L, el, nu, e)] = r
                 print(f"   {L:5d} {mesh.n_b:3d} {len(mesh.el):9d} {mesh.ndof:7d}  {el:5s} {nu:5.2f}"
                       f"  {1e3 * rs[0]['F']:11.3f}  {rs[0]['b'] / R:.4f}  {1e3 * rs[1]['F']:11.3f}"
                       f"  {rs[1]['b'] / R:.4f}", flush=True)
                 del lc
+        del mesh
     print(f"   [{time.time() - t0:.0f} s]")
 
-    L3 = levels[-3:]
-    print(f"\n== Richardson extrapolation over levels {L3} (n_b = {[5 * 2 ** l for l in L3]})")
-    print("   element nu    eps   F_coarse  F_mid    F_fine   order  F_extrap  F/Johnson  F/Michell(C=1/3)")
-    ext = {}
+    print("\n== Linear: Richardson over the three finest levels (order nan = differences not monotone:")
+    print("   the contact edge moves between nodes; then the finest value is kept), and comparisons")
+    print("   element nu    eps   F by level (coarse -> fine)            order  F_best    "
+          "F/Johnson  F/Michell(1/3)  F/Michell(0.566)")
+    best = {}
     for el in ("Q9", "Q2P1"):
         for nu in NUS:
             for e in EPSS:
-                fs = [1e3 * lin[(L, el, nu, e)]["F"] for L in L3 if (L, el, nu, e) in lin]
-                if len(fs) < 3:
-                    continue
-                p, fx = richardson(*fs)
-                ext[(el, nu, e)] = fx
-                print(f"   {el:5s} {nu:5.2f} {e:5.2f}  {fs[0]:8.3f} {fs[1]:8.3f} {fs[2]:8.3f}  {p:5.2f}"
-                      f"  {fx:8.3f}  {fx / (1e3 * FJ[e]):.4f}     {fx / (1e3 * FM[(e, nu)]):.4f}")
+                fs = [1e3 * lin[(L, el, nu, e)]["F"] for L in levels if (L, el, nu, e) in lin]
+                p, fx = richardson(*fs[-3:])
+                best[(el, nu, e)] = fx
+                print(f"   {el:5s} {nu:5.2f} {e:5.2f}  " + " ".join(f"{f:9.3f}" for f in fs)
+                      + " " * (10 * (4 - len(fs))) + f"  {p:5.2f}  {fx:9.3f}  {fx / (1e3 * FJ[e]):.5f}"
+                      f"    {fx / (1e3 * FM[(e, nu)]):.5f}        {fx / (1e3 * FM2[(e, nu)]):.5f}")
 
-    print("\n== Linear: F(nu)/F(0.45) at fixed E*, per mesh and extrapolated")
+    print("\n== Linear: F(nu)/F(0.45) at fixed E*, per mesh and best")
     for e in EPSS:
         print(f"   eps = {e}")
         print("   element level  " + "  ".join(f"nu={nu:.2f}" for nu in NUS))
@@ -518,9 +595,8 @@ def main():
                 print(f"   {el:5s} {L:5d}   " + "  ".join(
                     f"{lin[(L, el, nu, e)]['F'] / f45:.5f}" if (L, el, nu, e) in lin else "   -   "
                     for nu in NUS))
-            if (el, 0.45, e) in ext:
-                print(f"   {el:5s} extrap  " + "  ".join(
-                    f"{ext[(el, nu, e)] / ext[(el, 0.45, e)]:.5f}" for nu in NUS))
+            print(f"   {el:5s} best    " + "  ".join(
+                f"{best[(el, nu, e)] / best[(el, 0.45, e)]:.5f}" for nu in NUS))
         print("   Michell C=1/3    " + "  ".join(f"{FM[(e, nu)] / FM[(e, 0.45)]:.5f}" for nu in NUS))
         print("   Michell C=0.566  " + "  ".join(f"{FM2[(e, nu)] / FM2[(e, 0.45)]:.5f}" for nu in NUS))
     print(f"   [{time.time() - t0:.0f} s]")
@@ -528,6 +604,7 @@ def main():
     print("\n== Finite strain (total Lagrangian, Q9 displacement, Newton + active set)")
     print("   model level nu    eps   F_lin[N/m]  F_nl[N/m]  F_nl/F_lin  b/R(nl)  newton_its")
     nl = {}
+    summary = {}
     for L in (1, 2):
         mesh = meshes[L]
         for model in ("nh", "svk"):
@@ -542,20 +619,74 @@ def main():
     print(f"   [{time.time() - t0:.0f} s]")
 
     print("\n== Finite strain: F(nu)/F(0.45) per mesh, and best estimate "
-          "F = F_lin,extrap(Q2P1) * (F_nl/F_lin)_level2")
+          "F = F_lin,best(Q2P1) * (F_nl/F_lin)_level2")
     for e in EPSS:
         print(f"   eps = {e}")
-        print("   model level  " + "  ".join(f"nu={nu:.2f}" for nu in NUS) + "   F(0.45)[N/m]  F(0.45)/Johnson")
+        print("   model level  " + "  ".join(f"nu={nu:.2f}" for nu in NUS)
+              + "   F(0.45)[N/m]  F(0.45)/Johnson")
         for model in ("nh", "svk"):
             for L in (1, 2):
                 f45 = nl[(model, L, 0.45, e)]["F"]
                 print(f"   {model:4s} {L:5d}  " + "  ".join(
                     f"{nl[(model, L, nu, e)]['F'] / f45:.5f}" for nu in NUS)
                     + f"   {1e3 * f45:10.3f}")
-            best = {nu: ext[("Q2P1", nu, e)] * nl[(model, 2, nu, e)]["F"] / lin[(2, "Q9", nu, e)]["F"]
-                    for nu in NUS}
-            print(f"   {model:4s} best   " + "  ".join(f"{best[nu] / best[0.45]:.5f}" for nu in NUS)
-                  + f"   {best[0.45]:10.3f}    {best[0.45] / (1e3 * FJ[e]):.4f}")
+            fb = {nu: best[("Q2P1", nu, e)] * nl[(model, 2, nu, e)]["F"] / lin[(2, "Q9", nu, e)]["F"]
+                  for nu in NUS}
+            print(f"   {model:4s} best   " + "  ".join(f"{fb[nu] / fb[0.45]:.5f}" for nu in NUS)
+                  + f"   {fb[0.45]:10.3f}    {fb[0.45] / (1e3 * FJ[e]):.4f}")
+            summary[(model, e)] = fb
+
+    if fine:
+        print("\n== (--fine) neo-Hookean on level 3 (n_b = 40), nu = 0.30 and 0.45")
+        mesh = Mesh(3)
+        f3 = {}
+        for nu in (0.30, 0.45):
+            lc = LinearContact(mesh, nu, "Q9")
+            for e in EPSS:
+                r0 = lc.solve(approach(e))
+                r = nonlinear_contact(mesh, nu, approach(e), "nh", r0["u"], r0["active"])
+                f3[(nu, e)] = r["F"]
+                print(f"   nu = {nu:.2f}  eps = {e}:  F_nh = {1e3 * r['F']:.3f}  F_nh/F_lin = "
+                      f"{r['F'] / r0['F']:.5f}  (level 2: {nl[('nh', 2, nu, e)]['F'] / lin[(2, 'Q9', nu, e)]['F']:.5f})")
+            del lc
+        for e in EPSS:
+            print(f"   eps = {e}: F_nh(0.30)/F_nh(0.45) = {f3[(0.30, e)] / f3[(0.45, e)]:.5f} (level 2: "
+                  f"{nl[('nh', 2, 0.30, e)]['F'] / nl[('nh', 2, 0.45, e)]['F']:.5f})")
+        del mesh
+
+    print("\n== Neo-Hookean: nu effect against strain.  Level-1 mesh (n_b = 10) scaled to Johnson's b")
+    print("   at each strain (at eps = 0.02 level 1 and 2 ratios agree to 5e-5).  Linear: none at all.")
+    print("   eps     b/R    F_nh(0.30)/F_nh(0.45)  F_nh(0.49)/F_nh(0.45)  F_nh(0.45)/F_lin  F_nh(0.45)/Johnson")
+    for e in (0.002, 0.005, 0.01, 0.02, 0.03, 0.05):
+        FJe = force_from(johnson_delta, e)
+        bJ = np.sqrt(4 * FJe * R / (np.pi * ESTAR))
+        mesh = Mesh(1, b_ref=bJ, psi_unif=2.3 * bJ / R, depth_unif=0.53 * bJ)
+        F = {}
+        for nu in (0.30, 0.45, 0.49):
+            r0 = LinearContact(mesh, nu, "Q9").solve(approach(e))
+            F[nu] = nonlinear_contact(mesh, nu, approach(e), "nh", r0["u"], r0["active"])["F"]
+            if nu == 0.45:
+                flin, bR = r0["F"], r0["b"] / R
+        print(f"   {e:5.3f}  {bR:.3f}       {F[0.30] / F[0.45]:.5f}                {F[0.49] / F[0.45]:.5f}"
+              f"              {F[0.45] / flin:.5f}          {F[0.45] / FJe:.5f}")
+    print("\n== Side calculation: plates with full stick (infinite friction), linear, Q9, level 1")
+    print("   (the MPM's plates are frictionless; this only bounds what a tangential traction can do)")
+    st = {nu: linear_full_stick(meshes[1], nu) for nu in NUS}
+    for e in EPSS:
+        print(f"   eps = {e}: F = " + "  ".join(f"{1e3 * st[nu][e]:.2f}" for nu in NUS)
+              + "   F(nu)/F(0.45) = " + "  ".join(f"{st[nu][e] / st[0.45][e]:.4f}" for nu in NUS))
+
+    print("\n== SUMMARY: best F [N/m] per nu (linear: finest Q2P1; finite strain: linear x (F_nl/F_lin) on")
+    print("   level 2), F(nu)/F(0.45), and F/Johnson.  Johnson (A) is nu-free at fixed E*.")
+    print("   model   eps    " + "  ".join(f"F({nu:.2f})" for nu in NUS) + "   |  "
+          + "  ".join(f"r({nu:.2f})" for nu in NUS) + "  |  " + "  ".join(f"J({nu:.2f})" for nu in NUS))
+    for e in EPSS:
+        summary[("linear", e)] = {nu: best[("Q2P1", nu, e)] for nu in NUS}
+        for model in ("linear", "nh", "svk"):
+            fb = summary[(model, e)]
+            print(f"   {model:6s} {e:5.2f}  " + "  ".join(f"{fb[nu]:7.2f}" for nu in NUS) + "   |  "
+                  + "  ".join(f"{fb[nu] / fb[0.45]:.4f}" for nu in NUS) + "  |  "
+                  + "  ".join(f"{fb[nu] / (1e3 * FJ[e]):.4f}" for nu in NUS))
     print(f"\n   total {time.time() - t0:.0f} s")
 
 
