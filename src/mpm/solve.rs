@@ -98,6 +98,8 @@ pub struct Solver {
     mgrad: Vec<Vector2<f64>>,
     vn: Vec<Vector2<f64>>,
     an: Vec<Vector2<f64>>,
+    /// Start-of-step velocity changes from contact (`kick`), passed on to the points in G2P.
+    kicks: Vec<Vector2<f64>>,
     u: Vec<f64>,
     du: Vec<f64>,
     res: Vec<f64>,
@@ -373,7 +375,6 @@ impl Solver {
         &self.m
     }
 
-    /// `Σ_p m_p ∇S_ip` at the start of the step, per active node.
     /// Nodal velocities and accelerations of the start of the step (P2G).
     pub fn node_velocity(&self) -> &[Vector2<f64>] {
         &self.vn
@@ -383,6 +384,17 @@ impl Solver {
         &self.an
     }
 
+    /// Changes the start-of-step velocity of active node `i` by `dv` (an impulse at the
+    /// start of the step, `node_contact::start_collisions`): the predictor moves with it and
+    /// G2P gives the points their share, so nodes and points stay consistent.
+    pub fn kick(&mut self, i: usize, dv: Vector2<f64>, dt: f64) {
+        self.vn[i] += dv;
+        self.kicks[i] += dv;
+        self.u[2 * i] += dt * dv.x;
+        self.u[2 * i + 1] += dt * dv.y;
+    }
+
+    /// `Σ_p m_p ∇S_ip` at the start of the step, per active node.
     pub fn mass_gradient(&self) -> &[Vector2<f64>] {
         &self.mgrad
     }
@@ -478,6 +490,8 @@ impl Solver {
         self.vn.resize(n, Vector2::zeros());
         self.an.clear();
         self.an.resize(n, Vector2::zeros());
+        self.kicks.clear();
+        self.kicks.resize(n, Vector2::zeros());
         self.mgrad.clear();
         self.mgrad.resize(n, Vector2::zeros());
         for p in 0..points.len() {
@@ -655,7 +669,8 @@ impl Solver {
         for p in 0..points.len() {
             let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
             let (a, b) = (self.conn.grp_off[g], self.conn.grp_off[g + 1]);
-            let (mut du, mut acc) = (Vector2::zeros(), Vector2::zeros());
+            let (mut du, mut acc, mut kick) =
+                (Vector2::zeros(), Vector2::zeros(), Vector2::zeros());
             for k in 0..b - a {
                 let w = self.conn.pt_w[off + k];
                 if w == 0.0 {
@@ -665,9 +680,10 @@ impl Solver {
                 let u = vec2(&self.u, i);
                 du += u * w;
                 acc += nm.accel(u, self.vn[i], self.an[i], dt) * w;
+                kick += self.kicks[i] * w;
             }
             points.x[p] += du;
-            points.v[p] = nm.velocity(points.v[p], points.a[p], acc, dt);
+            points.v[p] = nm.velocity(points.v[p] + kick, points.a[p], acc, dt);
             points.a[p] = acc;
             points.stress[p] = self.trial_stress[p];
             points.def_grad[p] = self.trial_f[p];
