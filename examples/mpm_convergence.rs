@@ -80,9 +80,7 @@ fn main() {
         p.travel_per_step = travel;
         p.material.kind = kind;
         if let Some(nu) = poisson {
-            let m = &mut p.material;
-            m.young *= (1.0 - nu * nu) / (1.0 - m.poisson * m.poisson);
-            m.poisson = nu;
+            p.material = p.material.with_poisson_at_fixed_plane_strain_modulus(nu);
         }
         let (e, nu, rad) = (p.material.young, p.material.poisson, p.radius);
         match run_single_grain(p, |_| Control::Continue) {

@@ -81,9 +81,7 @@ fn force_at_fixed_plane_strain_modulus_follows_the_fe_reference_in_nu() {
     let force = |nu: f64| {
         let mut p = params(0.04, 0.051);
         p.material.kind = MaterialKind::NeoHookean;
-        let m = &mut p.material;
-        m.young *= (1.0 - nu * nu) / (1.0 - m.poisson * m.poisson);
-        m.poisson = nu;
+        p.material = p.material.with_poisson_at_fixed_plane_strain_modulus(nu);
         force_at(&run(p), 0.05)
     };
     let f45 = force(0.45);

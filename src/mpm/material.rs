@@ -31,6 +31,16 @@ pub struct Update {
 }
 
 impl Material {
+    /// The same material at Poisson ratio `nu` with the plane-strain modulus
+    /// `E* = E/(1-ν²)` kept (E rescaled): the comparison of `bench/disk-fe-reference.md`.
+    pub fn with_poisson_at_fixed_plane_strain_modulus(&self, nu: f64) -> Material {
+        Material {
+            young: self.young * (1.0 - nu * nu) / (1.0 - self.poisson * self.poisson),
+            poisson: nu,
+            ..*self
+        }
+    }
+
     /// Lamé constants `(λ, μ)` (Pa).
     pub fn lame(&self) -> (f64, f64) {
         let (e, nu) = (self.young, self.poisson);

@@ -192,7 +192,7 @@ fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
 /// Finds this step's node contacts (grain pairs first, ordered by node, then walls by grain)
 /// and numbers each grain's contact slots. `friction` is the inter-grain coefficient;
 /// walls carry their own. `alert` drops candidates with a larger gap. `nm` and `dt` set
-/// each contact's velocity law.
+/// each contact's velocity law; the grain pairs' shifts are left to `start_collisions`.
 #[allow(clippy::too_many_arguments)]
 pub fn detect(
     grid: &Grid,
@@ -207,11 +207,6 @@ pub fn detect(
 ) {
     out.clear();
     let k = nm.velocity_rate(dt);
-    // `c / k` at a grain's active node
-    let free = |g: usize, i: usize| {
-        let s = grains[g].solver;
-        nm.velocity_offset(s.node_velocity()[i], s.node_acceleration()[i], dt) / k
-    };
     // Every (common node, grain, active index), sorted by node then grain.
     let mut entries: Vec<(usize, usize, usize)> = Vec::new();
     for (g, v) in grains.iter().enumerate() {
@@ -303,7 +298,8 @@ pub fn detect(
                 slot_b: ib,
                 normal: n,
                 gap,
-                shift: free(ga, ia) - free(gb, ib),
+                // set by `start_collisions`, from the start-of-step velocities it changes
+                shift: Vector2::zeros(),
                 open: gap.max(0.0) / (k * dt),
                 friction,
                 force_n: 0.0,
@@ -379,11 +375,11 @@ pub fn detect(
 /// (a ratchet, measured at 0.4-0.65 h_g over a compaction). So each closed contact whose
 /// nodes approach first takes a perfectly inelastic normal impulse on the start-of-step
 /// velocities, `j = -v_n m^α m^β/(m^α + m^β)` (momentum kept, energy only lost), given
-/// to the points in G2P; then the shifts, which depend on `v^n`, are recomputed.
-pub fn start_collisions(
+/// to the points in G2P; then each grain pair's shift, which depends on `v^n`, is set.
+pub fn start_collisions<G: AsRef<Solver> + AsMut<Solver>>(
     contacts: &mut [NodeContact],
     slots: &[Slots],
-    solvers: &mut [&mut Solver],
+    grains: &mut [G],
     nm: Newmark,
     dt: f64,
 ) {
@@ -394,24 +390,27 @@ pub fn start_collisions(
         if c.gap > 0.0 {
             continue;
         }
+        let (sa, sb) = (grains[c.a].as_ref(), grains[b].as_ref());
         let (ia, ib) = (slots[c.a].nodes[c.slot_a], slots[b].nodes[c.slot_b]);
-        let vn = (solvers[c.a].node_velocity()[ia] - solvers[b].node_velocity()[ib]).dot(&c.normal);
+        let vn = (sa.node_velocity()[ia] - sb.node_velocity()[ib]).dot(&c.normal);
         if vn >= 0.0 {
             continue;
         }
-        let (ma, mb) = (solvers[c.a].node_mass()[ia], solvers[b].node_mass()[ib]);
+        let (ma, mb) = (sa.node_mass()[ia], sb.node_mass()[ib]);
         let j = -vn * ma * mb / (ma + mb);
-        solvers[c.a].kick(ia, c.normal * (j / ma), dt);
-        solvers[b].kick(ib, -c.normal * (j / mb), dt);
+        grains[c.a].as_mut().kick(ia, c.normal * (j / ma), dt);
+        grains[b].as_mut().kick(ib, -c.normal * (j / mb), dt);
     }
+    // `c / k` at a grain's active node
     let k = nm.velocity_rate(dt);
-    let free = |s: &Solver, i: usize| {
+    let free = |g: &G, i: usize| {
+        let s = g.as_ref();
         nm.velocity_offset(s.node_velocity()[i], s.node_acceleration()[i], dt) / k
     };
     for c in contacts.iter_mut() {
         if let Partner::Grain(b) = c.partner {
             let (ia, ib) = (slots[c.a].nodes[c.slot_a], slots[b].nodes[c.slot_b]);
-            c.shift = free(solvers[c.a], ia) - free(solvers[b], ib);
+            c.shift = free(&grains[c.a], ia) - free(&grains[b], ib);
         }
     }
 }

@@ -42,8 +42,8 @@
 //!   strip of one cell; the paper's velocity Signorini and Coulomb with restitution 0 and
 //!   gap anticipation, overlaps left alone, and a perfectly inelastic start-of-step
 //!   collision at closed contacts against the trapezoidal ratchet; alert distance `h_g`).
-//!   Walls: infinite mass,
-//!   frictionless by default, detected as for the single grain's plates.
+//!   Walls: infinite mass, frictionless by default, detected as for the single grain's
+//!   plates.
 //! * **Warm start** of the node forces by (common node, grain, partner).
 //! * **Start**: grains at rest in the unjammed layout, no quasi-static velocity field (they
 //!   carry no load until the top wall or a neighbour reaches them).
@@ -164,6 +164,18 @@ struct GrainWork {
     factored: bool,
     /// Whether this iteration solves for the grain's increment.
     updating: bool,
+}
+
+impl AsRef<Solver> for GrainWork {
+    fn as_ref(&self) -> &Solver {
+        &self.solver
+    }
+}
+
+impl AsMut<Solver> for GrainWork {
+    fn as_mut(&mut self) -> &mut Solver {
+        &mut self.solver
+    }
 }
 
 #[derive(Default)]
@@ -452,17 +464,13 @@ impl Packing {
                 &mut ws.slots,
             );
         }
-        {
-            let mut solvers: Vec<&mut Solver> =
-                ws.grains.iter_mut().map(|w| &mut w.solver).collect();
-            nc::start_collisions(
-                &mut ws.contacts,
-                &ws.slots,
-                &mut solvers,
-                p.solver.newmark,
-                dt,
-            );
-        }
+        nc::start_collisions(
+            &mut ws.contacts,
+            &ws.slots,
+            &mut ws.grains,
+            p.solver.newmark,
+            dt,
+        );
         if crate::shortcuts::get().warm_start {
             nc::warm_start(&mut ws.contacts, &self.warm);
         }
