@@ -1,7 +1,7 @@
 //! Refinement study of the single MPM grain against Johnson's 2D solution and Eq. 13.
 //!
 //! `cargo run --release --example mpm_convergence -- [resolutions] [shape] [bbar] [final_strain]
-//! [travel_per_step] [material] [poisson]`, e.g.
+//! [travel_per_step] [material] [poisson] [wall_velocity] [wall_friction]`, e.g.
 //! `-- 0.08,0.04,0.029 bilinear on 0.05 0.05 neohookean 0.3`. A Poisson ratio other than the
 //! paper's 0.45 keeps E* = E/(1-ν²) at the paper's value (the FE reference's comparison,
 //! `bench/disk-fe-reference.md`).
@@ -20,6 +20,17 @@ fn force_at(rows: &[softgrain::mpm::Row], strain: f64) -> f64 {
         }
     }
     f64::NAN
+}
+
+/// Mean of F/Johnson over ε = 0.010, 0.011, ..., 0.050: averages out the steps the force
+/// takes as grid nodes enter the contact (±2-3% at single strains).
+fn mean_over_johnson(rows: &[softgrain::mpm::Row], e: f64, nu: f64, rad: f64) -> f64 {
+    let strains: Vec<f64> = (10..=50).map(|k| f64::from(k) * 1e-3).collect();
+    let sum: f64 = strains
+        .iter()
+        .map(|&s| force_at(rows, s) / johnson_force(e, nu, rad, s).unwrap())
+        .sum();
+    sum / strains.len() as f64
 }
 
 fn main() {
@@ -51,11 +62,13 @@ fn main() {
         _ => MaterialKind::LinearElastic,
     };
     let poisson: Option<f64> = args.get(7).map(|s| s.parse().expect("poisson"));
+    let wall_velocity: Option<f64> = args.get(8).map(|s| s.parse().expect("wall velocity"));
+    let wall_friction: Option<f64> = args.get(9).map(|s| s.parse().expect("wall friction"));
     println!(
         "shape {shape:?}, B-bar {bbar}, final strain {final_strain}, travel/step {travel} h_g, {kind:?}, ν {poisson:?}"
     );
     println!(
-        "{:>6} {:>6} {:>5} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>6} {:>6} {:>5} {:>8} {:>8}",
+        "{:>6} {:>6} {:>5} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>6} {:>5} {:>8} {:>8}",
         "dr/R",
         "points",
         "cells",
@@ -65,6 +78,7 @@ fn main() {
         "E13(.02)",
         "J(.05)",
         "E13(.05)",
+        "J(mean)",
         "steps",
         "iters",
         "max",
@@ -79,6 +93,12 @@ fn main() {
         p.final_strain = final_strain;
         p.travel_per_step = travel;
         p.material.kind = kind;
+        if let Some(mu) = wall_friction {
+            p.wall_friction = mu;
+        }
+        if let Some(v) = wall_velocity {
+            p.wall_velocity = v;
+        }
         if let Some(nu) = poisson {
             p.material = p.material.with_poisson_at_fixed_plane_strain_modulus(nu);
         }
@@ -89,7 +109,7 @@ fn main() {
                 let f5 = force_at(&out.rows, 0.05);
                 let s = &out.stats;
                 println!(
-                    "{:>6.4} {:>6} {:>5.0} {:>9.1} {:>9.1} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>6} {:>6} {:>5} {:>8.1} {:>8.3}",
+                    "{:>6.4} {:>6} {:>5.0} {:>9.1} {:>9.1} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>8.4} {:>6} {:>6} {:>5} {:>8.1} {:>8.3}",
                     r,
                     s.points,
                     2.0 * rad / s.cell_size,
@@ -99,6 +119,7 @@ fn main() {
                     f2 / eq13_force(e, nu, rad, 0.02),
                     f5 / johnson_force(e, nu, rad, 0.05).unwrap(),
                     f5 / eq13_force(e, nu, rad, 0.05),
+                    mean_over_johnson(&out.rows, e, nu, rad),
                     s.steps,
                     s.newton_iterations,
                     s.max_newton_iterations,

@@ -69,29 +69,54 @@ fn force_scales_with_plane_strain_modulus_and_radius() {
     assert!((f_r / f0 / 2.0 - 1.0).abs() < 0.02, "R: {}", f_r / f0);
 }
 
+/// Mean of F/Johnson over ε = 0.010, 0.011, ..., 0.050. The force steps by ±2-3% as grid
+/// nodes enter the contact, at strains that shift with ν; the window mean averages that out.
+fn window_mean_over_johnson(p: SingleGrainParams) -> f64 {
+    let (e, nu, r) = (p.material.young, p.material.poisson, p.radius);
+    let rows = run(p);
+    (10..=50)
+        .map(|k| {
+            let strain = f64::from(k) * 1e-3;
+            force_at(&rows, strain) / johnson_force(e, nu, r, strain).unwrap()
+        })
+        .sum::<f64>()
+        / 41.0
+}
+
 /// ν at fixed E* = E/(1-ν²) against the plane-strain finite-element reference
 /// (`bench/disk-fe-reference.md`, Q9 and Q2P1 to 660k DOFs, exact frictionless contact):
 /// in linear elasticity F(δ) depends on ν only through E*, exactly; with the MPM's
-/// neo-Hookean law at ε = 0.05, F(0.3)/F(0.45) = 0.9883 and F(0.49)/F(0.45) = 1.0068.
-/// Measured here (Δr/R = 0.04): 0.980 and 1.006. Over Δr/R = 0.04-0.0156 the first ratio
-/// stays 0.3-1.0% below the FE (0.978-0.985), not converging cleanly: the MPM's residual
-/// ν error, recorded in the README.
+/// neo-Hookean law, averaged over ε in [0.01, 0.05] (`disk_fe_reference.py --window`),
+/// F(0.3)/F(0.45) = 0.9928 and F(0.49)/F(0.45) = 1.0042. The MPM's error in these ratios
+/// is a discretisation error that falls under refinement (README): measured 0.9806 and
+/// 1.0110 at Δr/R = 0.04, 0.9850 and 1.0067 at 0.0156, 0.9901 and 1.0054 at 0.01.
 #[test]
-fn force_at_fixed_plane_strain_modulus_follows_the_fe_reference_in_nu() {
-    let force = |nu: f64| {
-        let mut p = params(0.04, 0.051);
-        p.material.kind = MaterialKind::NeoHookean;
-        p.material = p.material.with_poisson_at_fixed_plane_strain_modulus(nu);
-        force_at(&run(p), 0.05)
+fn force_at_fixed_plane_strain_modulus_converges_to_the_fe_reference_in_nu() {
+    let ratios = |resolution: f64| {
+        let mean = |nu: f64| {
+            let mut p = params(resolution, 0.051);
+            p.material.kind = MaterialKind::NeoHookean;
+            p.material = p.material.with_poisson_at_fixed_plane_strain_modulus(nu);
+            window_mean_over_johnson(p)
+        };
+        let f45 = mean(0.45);
+        [mean(0.3) / f45, mean(0.49) / f45]
     };
-    let f45 = force(0.45);
-    for (nu, fe) in [(0.3, 0.9883), (0.49, 1.0068)] {
-        let ratio = force(nu) / f45;
+    let fe = [0.9928, 1.0042];
+    let coarse = ratios(0.04);
+    let fine = ratios(0.0156);
+    for k in 0..2 {
+        let (ec, ef) = (coarse[k] / fe[k] - 1.0, fine[k] / fe[k] - 1.0);
         assert!(
-            (ratio / fe - 1.0).abs() < 0.012,
-            "F({nu})/F(0.45) = {ratio}, FE {fe}"
+            ef.abs() < 0.01 && ef.abs() < ec.abs(),
+            "ratio {k}: {} at Δr/R = 0.04, {} at 0.0156, FE {}",
+            coarse[k],
+            fine[k],
+            fe[k]
         );
     }
+    // The scaling statement: F(0.3) and F(0.45) at equal E* within 2%.
+    assert!((fine[0] - 1.0).abs() < 0.02, "F(0.3)/F(0.45) = {}", fine[0]);
 }
 
 #[test]
