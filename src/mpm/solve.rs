@@ -354,6 +354,15 @@ impl Solver {
             .map_err(|reason| MpmError::LinearSolve { step, reason })
     }
 
+    /// Solves `K x = rhs` for one column by block-Jacobi conjugate gradients instead of
+    /// the factorisation, to relative residual `tol`; returns the iterations (the measured
+    /// alternative, `benches/linear_solver.rs`).
+    pub fn solve_iterative(&self, rhs: &mut [f64], tol: f64, step: u64) -> Result<usize, MpmError> {
+        self.sys
+            .solve_pcg(&self.fixed, rhs, tol, 20 * rhs.len())
+            .map_err(|reason| MpmError::LinearSolve { step, reason })
+    }
+
     /// `u += du`.
     pub fn add_increment(&mut self, du: &[f64]) {
         for (u, d) in self.u.iter_mut().zip(du) {
