@@ -23,6 +23,20 @@ fn median(mut t: Vec<f64>) -> f64 {
     t[t.len() / 2]
 }
 
+/// The paper's grain at `resolution`, compressed to `strain` through its own driver.
+fn compressed_grain(resolution: f64, strain: f64) -> SingleGrain {
+    let mut grain = SingleGrain::new(SingleGrainParams {
+        resolution,
+        final_strain: strain,
+        ..SingleGrainParams::paper()
+    })
+    .expect("grain");
+    while !grain.is_done() {
+        grain.step().expect("step");
+    }
+    grain
+}
+
 fn main() {
     let runs: usize = arg("--runs").map_or(5, |v| v.parse().expect("--runs N"));
     let strain: f64 = arg("--strain").map_or(0.1, |v| v.parse().expect("--strain E"));
@@ -45,45 +59,34 @@ fn main() {
         "cg12 diff"
     );
     for res in resolutions {
-        let mut p = SingleGrainParams::paper();
-        p.resolution = res;
-        p.final_strain = strain;
-        let mut grain = SingleGrain::new(p.clone()).expect("grain");
-        while !grain.is_done() {
-            grain.step().expect("step");
-        }
-        let (params, material) = (&p.solver, &p.material);
-        let mut solver = Solver::default();
-        solver
-            .begin(params, &grain.grid, &grain.points, grain.dt, 0)
-            .expect("begin");
-        solver
-            .evaluate_residual(params, material, &grain.points, grain.dt, 0)
-            .expect("residual");
+        let grain = compressed_grain(res, strain);
+        let (params, material) = (&grain.params.solver, &grain.params.material);
+        // A workspace holding the effective stiffness and residual of the grain's state.
+        let prepared = || {
+            let mut s = Solver::default();
+            s.begin(params, &grain.grid, &grain.points, grain.dt, 0)
+                .expect("begin");
+            s.evaluate_residual(params, material, &grain.points, grain.dt, 0)
+                .expect("residual");
+            s
+        };
+        let solver = prepared();
         let rhs = solver.residual_vector().to_vec();
+        // Factorise and solve; returns the seconds taken and the solution.
+        let direct_solve = |s: &mut Solver| {
+            let t = Instant::now();
+            s.factorize(params, material, &grain.points, grain.dt, 0)
+                .expect("factor");
+            let mut x = rhs.clone();
+            s.solve(&mut x, 1, 0).expect("solve");
+            (t.elapsed().as_secs_f64(), x)
+        };
         let (mut first, mut again, mut direct) = (Vec::new(), Vec::new(), rhs.clone());
         for _ in 0..runs {
-            let mut fresh = Solver::default();
-            fresh
-                .begin(params, &grain.grid, &grain.points, grain.dt, 0)
-                .expect("begin");
-            fresh
-                .evaluate_residual(params, material, &grain.points, grain.dt, 0)
-                .expect("residual");
-            let t = Instant::now();
-            fresh
-                .factorize(params, material, &grain.points, grain.dt, 0)
-                .expect("factor");
-            let mut x = rhs.clone();
-            fresh.solve(&mut x, 1, 0).expect("solve");
-            first.push(t.elapsed().as_secs_f64());
-            let t = Instant::now();
-            fresh
-                .factorize(params, material, &grain.points, grain.dt, 0)
-                .expect("factor");
-            let mut x = rhs.clone();
-            fresh.solve(&mut x, 1, 0).expect("solve");
-            again.push(t.elapsed().as_secs_f64());
+            let mut fresh = prepared();
+            first.push(direct_solve(&mut fresh).0);
+            let (t, x) = direct_solve(&mut fresh);
+            again.push(t);
             direct = x;
         }
         let cg = |tol: f64| {
