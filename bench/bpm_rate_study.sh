@@ -2,7 +2,8 @@
 # BPM single-grain plateau against plate speed, time step and F0, over many seeds
 # (README, "BPM": the rate effect). The small CI grain, R = 1.5 mm, particles
 # 0.16-0.26 mm (about 150): one run takes 8-30 s. Writes bench/bpm_rate_study.csv.
-#   bench/bpm_rate_study.sh [SEEDS]      (default: 1 2 3 4; CASES=3 runs the first 3 cases)
+#   bench/bpm_rate_study.sh [SEEDS]      (default: 1 2 3 4; CASES=3 runs the first 3 cases,
+#                                         FIRST=9 starts at the tenth)
 # Run from the repository root after `cargo build --release`.
 set -euo pipefail
 sg=${CARGO_TARGET_DIR:-target}/release/softgrain
@@ -33,9 +34,9 @@ PY
 }
 # (F0 in N/m, plate speed in m/s, time step divided by)
 cases=("100 0.2 1" "200 0.2 1" "100 0.1 1" "100 0.05 1" "100 0.4 2" "100 0.8 4"
-       "100 0.2 2" "100 0.2 4" "200 0.2828427 1")
+       "100 0.2 2" "100 0.2 4" "200 0.2828427 1" "100 0.025 1" "100 0.0125 1")
 for seed in ${1:-1 2 3 4}; do
-  for c in "${cases[@]:0:${CASES:-${#cases[@]}}}"; do
+  for c in "${cases[@]:${FIRST:-0}:${CASES:-${#cases[@]}}}"; do
     # shellcheck disable=SC2086
     run $c "$seed"
   done
