@@ -8,30 +8,10 @@
 //! Prints a table; nothing is written.
 
 use softgrain::mpm::analytic::{eq13_force, johnson_force};
-use softgrain::mpm::{Control, MaterialKind, ShapeKind, SingleGrainParams, run_single_grain};
-
-/// Linear interpolation of the mean plate force at `strain`.
-fn force_at(rows: &[softgrain::mpm::Row], strain: f64) -> f64 {
-    let f = |r: &softgrain::mpm::Row| 0.5 * (r.force_top + r.force_bottom);
-    for w in rows.windows(2) {
-        if w[0].strain <= strain && strain <= w[1].strain {
-            let t = (strain - w[0].strain) / (w[1].strain - w[0].strain);
-            return f(&w[0]) + t * (f(&w[1]) - f(&w[0]));
-        }
-    }
-    f64::NAN
-}
-
-/// Mean of F/Johnson over ε = 0.010, 0.011, ..., 0.050: averages out the steps the force
-/// takes as grid nodes enter the contact (±2-3% at single strains).
-fn mean_over_johnson(rows: &[softgrain::mpm::Row], e: f64, nu: f64, rad: f64) -> f64 {
-    let strains: Vec<f64> = (10..=50).map(|k| f64::from(k) * 1e-3).collect();
-    let sum: f64 = strains
-        .iter()
-        .map(|&s| force_at(rows, s) / johnson_force(e, nu, rad, s).unwrap())
-        .sum();
-    sum / strains.len() as f64
-}
+use softgrain::mpm::{
+    Control, MaterialKind, ShapeKind, SingleGrainParams, force_at, run_single_grain,
+    window_mean_over_johnson,
+};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -102,7 +82,7 @@ fn main() {
         if let Some(nu) = poisson {
             p.material = p.material.with_poisson_at_fixed_plane_strain_modulus(nu);
         }
-        let (e, nu, rad) = (p.material.young, p.material.poisson, p.radius);
+        let (e, nu, rad, material) = (p.material.young, p.material.poisson, p.radius, p.material);
         match run_single_grain(p, |_| Control::Continue) {
             Ok(out) => {
                 let f2 = force_at(&out.rows, 0.02);
@@ -119,7 +99,7 @@ fn main() {
                     f2 / eq13_force(e, nu, rad, 0.02),
                     f5 / johnson_force(e, nu, rad, 0.05).unwrap(),
                     f5 / eq13_force(e, nu, rad, 0.05),
-                    mean_over_johnson(&out.rows, e, nu, rad),
+                    window_mean_over_johnson(&out.rows, &material, rad),
                     s.steps,
                     s.newton_iterations,
                     s.max_newton_iterations,

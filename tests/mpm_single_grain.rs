@@ -5,8 +5,8 @@
 
 use softgrain::mpm::analytic::{eq13_force, johnson_force};
 use softgrain::mpm::{
-    Control, MaterialKind, MpmError, Row, ShapeKind, SingleGrain, SingleGrainParams,
-    run_single_grain,
+    Control, MaterialKind, MpmError, Row, ShapeKind, SingleGrain, SingleGrainParams, force_at,
+    run_single_grain, window_mean_over_johnson,
 };
 
 fn params(resolution: f64, final_strain: f64) -> SingleGrainParams {
@@ -14,17 +14,6 @@ fn params(resolution: f64, final_strain: f64) -> SingleGrainParams {
     p.resolution = resolution;
     p.final_strain = final_strain;
     p
-}
-
-/// Mean plate force interpolated at `strain` (N/m).
-fn force_at(rows: &[Row], strain: f64) -> f64 {
-    let f = |r: &Row| 0.5 * (r.force_top + r.force_bottom);
-    let w = rows
-        .windows(2)
-        .find(|w| w[0].strain <= strain && strain <= w[1].strain)
-        .expect("strain inside the run");
-    let t = (strain - w[0].strain) / (w[1].strain - w[0].strain);
-    f(&w[0]) + t * (f(&w[1]) - f(&w[0]))
 }
 
 fn run(p: SingleGrainParams) -> Vec<Row> {
@@ -69,20 +58,6 @@ fn force_scales_with_plane_strain_modulus_and_radius() {
     assert!((f_r / f0 / 2.0 - 1.0).abs() < 0.02, "R: {}", f_r / f0);
 }
 
-/// Mean of F/Johnson over ε = 0.010, 0.011, ..., 0.050. The force steps by ±2-3% as grid
-/// nodes enter the contact, at strains that shift with ν; the window mean averages that out.
-fn window_mean_over_johnson(p: SingleGrainParams) -> f64 {
-    let (e, nu, r) = (p.material.young, p.material.poisson, p.radius);
-    let rows = run(p);
-    (10..=50)
-        .map(|k| {
-            let strain = f64::from(k) * 1e-3;
-            force_at(&rows, strain) / johnson_force(e, nu, r, strain).unwrap()
-        })
-        .sum::<f64>()
-        / 41.0
-}
-
 /// ν at fixed E* = E/(1-ν²) against the plane-strain finite-element reference
 /// (`bench/disk-fe-reference.md`, Q9 and Q2P1 to 660k DOFs, exact frictionless contact):
 /// in linear elasticity F(δ) depends on ν only through E*, exactly; with the MPM's
@@ -97,7 +72,8 @@ fn force_at_fixed_plane_strain_modulus_converges_to_the_fe_reference_in_nu() {
             let mut p = params(resolution, 0.051);
             p.material.kind = MaterialKind::NeoHookean;
             p.material = p.material.with_poisson_at_fixed_plane_strain_modulus(nu);
-            window_mean_over_johnson(p)
+            let (material, radius) = (p.material, p.radius);
+            window_mean_over_johnson(&run(p), &material, radius)
         };
         let f45 = mean(0.45);
         [mean(0.3) / f45, mean(0.49) / f45]

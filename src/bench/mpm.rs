@@ -6,7 +6,7 @@
 
 use super::spec::{MpmFamily, MpmSetting, MpmStability, Shape};
 use crate::mpm::analytic::johnson_force;
-use crate::mpm::{Control, Row, ShapeKind, SingleGrainParams, run_single_grain};
+use crate::mpm::{Control, Row, ShapeKind, SingleGrainParams, force_at, run_single_grain};
 
 /// What one run measured.
 pub struct Measured {
@@ -56,12 +56,6 @@ fn curve(rows: &[Row]) -> Vec<[f64; 2]> {
     rows.iter()
         .map(|r| [r.strain, 0.5 * (r.force_top + r.force_bottom)])
         .collect()
-}
-
-/// Mean plate force at `strain`, interpolated linearly between recorded steps and from
-/// the unloaded start (ε = 0, F = 0), which a coarse step may leave far behind.
-fn force_at(rows: &[Row], strain: f64) -> f64 {
-    interpolate(&curve(rows), strain)
 }
 
 fn interpolate(curve: &[[f64; 2]], strain: f64) -> f64 {

@@ -70,7 +70,7 @@ pub mod sparse;
 
 pub use driver::{
     Control, PointState, Progress, Row, RunStats, SingleGrain, SingleGrainParams,
-    SingleGrainResult, run_single_grain,
+    SingleGrainResult, force_at, run_single_grain, window_mean_over_johnson,
 };
 pub use error::MpmError;
 pub use material::{Material, MaterialKind};

@@ -10,7 +10,7 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Par, Side};
-use nalgebra::Matrix2;
+use nalgebra::{Matrix2, Vector2};
 
 /// Lower-triangular block storage: block `(I, J)` with `I <= J` holds
 /// `B[r][c] = K[2J + r][2I + c]`.
@@ -234,9 +234,7 @@ impl SymSystem {
         );
         Ok(())
     }
-}
 
-impl SymSystem {
     /// Solves `K x = rhs` in place by conjugate gradients with a block-Jacobi (2×2 node
     /// block) preconditioner, the DOFs in `fixed` eliminated as in `factorize`, from
     /// `x = 0` until `‖r‖ <= tol ‖rhs‖`. Returns the iterations. The measured alternative to
@@ -263,22 +261,24 @@ impl SymSystem {
                 k.try_inverse().unwrap_or_else(Matrix2::zeros)
             })
             .collect();
-        // Lower blocks store `K[2J + r][2I + c]` with the upper half of the diagonal block
-        // unset; `matvec` reads the lower half only.
+        // A fixed DOF keeps only its diagonal, as in `factorize`.
+        let fixed_diag: Vec<(usize, f64)> = (0..n)
+            .filter(|&d| fixed[d])
+            .map(|d| (d, self.diag(d)))
+            .collect();
         let apply = |x: &[f64], y: &mut [f64], masked: &mut [f64]| {
-            for d in 0..n {
-                masked[d] = if fixed[d] { 0.0 } else { x[d] };
+            masked.copy_from_slice(x);
+            for &(d, _) in &fixed_diag {
+                masked[d] = 0.0;
             }
             self.matvec(masked, y);
-            for d in 0..n {
-                if fixed[d] {
-                    y[d] = self.diag(d) * x[d];
-                }
+            for &(d, k) in &fixed_diag {
+                y[d] = k * x[d];
             }
         };
         let precondition = |r: &[f64], z: &mut [f64]| {
             for (i, m) in inv.iter().enumerate() {
-                let v = m * nalgebra::Vector2::new(r[2 * i], r[2 * i + 1]);
+                let v = m * Vector2::new(r[2 * i], r[2 * i + 1]);
                 z[2 * i] = v.x;
                 z[2 * i + 1] = v.y;
             }
