@@ -39,8 +39,7 @@ fn a_bpm_grain_yields_plastically_keeps_its_area_and_its_particles() {
     let c = compress("bpm1", &[]);
     let f = &c.figures;
     let scale = f.f0 / f.mean_a0;
-    // a plastic plateau of order F0/<a0> (the paper: about 1 for its 1750-particle grain;
-    // smaller grains, with more of their particles at the surface, are weaker)
+    // a plastic plateau of order F0/<a0> (about 0.2, as for the paper's 1750-particle grain)
     assert!(
         f.plateau > 0.1 && f.plateau < 2.0,
         "plateau σ<a0>/F0 = {}",
@@ -77,4 +76,29 @@ fn a_bpm_grain_yields_plastically_keeps_its_area_and_its_particles() {
     // nearly constant area (frictionless rearrangements do not dilate) and no escape
     assert!(f.area_change < 0.05, "area changed by {}", f.area_change);
     assert_eq!(f.escaped_max, 0);
+
+    // The plateau level (README, "the plateau level"): the attraction holds the grain under
+    // an isotropic tension σ_c ≈ Z_a φ/π F0/<a0> ≈ 1.2-1.3 (Z_a ≈ 4.7 attracting pairs per
+    // particle weighted by F_a/F0, φ ≈ 0.77), and the contact network, loaded by that plus
+    // the plate, yields at the internal friction of frictionless disks, s ≈ 0.1. With
+    // σ_xx = 0 on the free sides the grain-mean vertical stress is then 2 σ_c s/(1 - s).
+    assert!(
+        f.plateau_prestress > 1.0 && f.plateau_prestress < 1.6,
+        "σ_c <a0>/F0 = {}",
+        f.plateau_prestress
+    );
+    assert!(
+        f.plateau_sin_phi > 0.03 && f.plateau_sin_phi < 0.15,
+        "mobilised friction {}",
+        f.plateau_sin_phi
+    );
+    // grain-mean vertical stress from the plates, F h/A (h the plate gap, A the grain area)
+    let h0 = c.rows[0].area.sqrt() * 2.0 / std::f64::consts::PI.sqrt();
+    let plate = mean_over(&c, 0.1, 0.3, |r| r.force * h0 * (-r.strain).exp() / r.area);
+    let s = f.plateau_sin_phi;
+    let internal = 2.0 * f.plateau_prestress * scale * s / (1.0 - s);
+    assert!(
+        (internal / plate - 1.0).abs() < 0.2,
+        "2 σ_c s/(1 - s) = {internal:.4e} Pa against F h/A = {plate:.4e} Pa"
+    );
 }

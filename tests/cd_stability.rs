@@ -141,6 +141,7 @@ fn a_bpm_grain_far_above_its_step_limit_stops_at_once() {
             f0: 100.0,
             gamma: 7.0,
             cutoff: 1.0,
+            rolling: 0.0,
         };
         let params = CdParams {
             dt: k * t0,

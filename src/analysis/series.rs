@@ -54,9 +54,11 @@ fn single(
     )
 }
 
+/// A BPM grain's rows also carry its cohesive prestress `sigma_c` (Pa) and the mobilised
+/// friction `sin_phi` of its contact network (`bpm::measure::GrainStress`).
 pub fn single_bpm(case: &str, friction: f64, c: &Compacted) -> PolarsResult<DataFrame> {
     let get = |f: fn(&crate::stages::compact::Row) -> f64| c.rows.iter().map(f).collect();
-    single(
+    let mut df = single(
         case,
         Method::Bpm,
         friction,
@@ -67,7 +69,20 @@ pub fn single_bpm(case: &str, friction: f64, c: &Compacted) -> PolarsResult<Data
             get(|r| r.width),
             get(|r| r.sigma),
         ],
-    )
+    )?;
+    df.with_column(Column::new("sigma_c".into(), get(|r| r.sigma_c)))?;
+    df.with_column(Column::new("sin_phi".into(), get(|r| r.sin_phi)))?;
+    Ok(df)
+}
+
+/// An MPM grain has no cohesive prestress: its `sigma_c` and `sin_phi` are null, so that
+/// both methods' rows stack into one table.
+fn without_cohesion(mut df: DataFrame) -> PolarsResult<DataFrame> {
+    let n = df.height();
+    for name in ["sigma_c", "sin_phi"] {
+        df.with_column(Column::full_null(name.into(), n, &DataType::Float64))?;
+    }
+    Ok(df)
 }
 
 pub fn single_mpm(case: &str, friction: f64, c: &MpmCompacted) -> PolarsResult<DataFrame> {
@@ -84,6 +99,7 @@ pub fn single_mpm(case: &str, friction: f64, c: &MpmCompacted) -> PolarsResult<D
             get(|r| r.sigma),
         ],
     )
+    .and_then(without_cohesion)
 }
 
 /// The cases' frames stacked into one (an empty frame for none).
@@ -107,4 +123,42 @@ pub fn values(df: &DataFrame, name: &str) -> PolarsResult<Vec<f64>> {
         .iter()
         .map(|v| v.unwrap_or(f64::NAN))
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::compact::Row;
+
+    #[test]
+    fn bpm_and_mpm_grains_stack_into_one_table() {
+        let rows = vec![
+            Row {
+                strain: 0.1,
+                sigma_c: 2.0,
+                sin_phi: 0.1,
+                ..Default::default()
+            };
+            3
+        ];
+        let bpm = Compacted {
+            rows,
+            final_particles: Default::default(),
+            figures: Default::default(),
+        };
+        let bpm = single_bpm("bpm-mu0", 0.0, &bpm).unwrap();
+        let mpm = single(
+            "mpm-mu0",
+            Method::Mpm,
+            0.0,
+            std::array::from_fn(|_| vec![1.0; 2]),
+        )
+        .and_then(without_cohesion)
+        .unwrap();
+        let all = stack(&[bpm, mpm]).unwrap();
+        assert_eq!(all.height(), 5);
+        let sigma_c = values(&all, "sigma_c").unwrap();
+        assert_eq!(&sigma_c[..3], &[2.0; 3]);
+        assert!(sigma_c[3..].iter().all(|v| v.is_nan()));
+    }
 }

@@ -88,6 +88,12 @@ pub struct CaseSummary {
     pub plateau: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plateau_stress: Option<f64>,
+    /// BPM, over the same strains: the cohesive prestress σ_c <a0>/F0 and the contact
+    /// network's mobilised friction s; the plateau is close to 2 σ_c s/(1 − s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plateau_prestress: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plateau_sin_phi: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub particles: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -170,6 +176,9 @@ pub fn single_bpm(
     s.small_strain_slope = measures::slope_through_origin(df, "strain", "sigma", a.small_strain)?;
     s.plateau_stress = measures::mean_within(df, "strain", "sigma", a.plateau_strain)?;
     s.plateau = s.plateau_stress.map(|p| p * mean_a0 / f0);
+    s.plateau_prestress =
+        measures::mean_within(df, "strain", "sigma_c", a.plateau_strain)?.map(|p| p * mean_a0 / f0);
+    s.plateau_sin_phi = measures::mean_within(df, "strain", "sin_phi", a.plateau_strain)?;
     s.particles = Some(particles);
     s.mean_a0 = Some(mean_a0);
     s.f0 = Some(f0);

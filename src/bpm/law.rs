@@ -12,17 +12,20 @@ use serde::{Deserialize, Serialize};
 /// force. Its stiffness is at most k_a = γ F0/a0, so it is stable for h < 2 sqrt(m*/k_a)
 /// ≈ 0.53 t0 with t0 = sqrt(m a0/F0); the compact stage uses h = 0.1 t0 (smallest particle)
 /// by default, five times inside that limit and accurate (METHODS.md §1.9).
+///
+/// `rolling` is the optional rolling resistance μ_r between particles of one grain (off, 0,
+/// by default, as in the paper): without it boundary particles turn freely, so friction on
+/// a grain's surface cannot be mobilised (the paper's conclusion).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum BpmLaw {
     Cohesive {
         f0: f64,
         gamma: f64,
         cutoff: f64,
+        rolling: f64,
     },
     /// Inter-grain and wall contacts: Coulomb friction, no attraction.
-    Coulomb {
-        mu: f64,
-    },
+    Coulomb { mu: f64 },
 }
 
 impl InteractionLaw for BpmLaw {
@@ -30,6 +33,13 @@ impl InteractionLaw for BpmLaw {
         match self {
             BpmLaw::Cohesive { .. } => 0.0,
             BpmLaw::Coulomb { mu } => *mu,
+        }
+    }
+
+    fn rolling(&self) -> f64 {
+        match self {
+            BpmLaw::Cohesive { rolling, .. } => *rolling,
+            BpmLaw::Coulomb { .. } => 0.0,
         }
     }
 
@@ -42,9 +52,9 @@ impl InteractionLaw for BpmLaw {
 
     fn smooth_force(&self, gap: f64, a0: f64) -> f64 {
         match *self {
-            BpmLaw::Cohesive { f0, gamma, cutoff } if gap <= cutoff * a0 => {
-                -f0 * (1.0 + gap.max(0.0) / a0).powf(-gamma)
-            }
+            BpmLaw::Cohesive {
+                f0, gamma, cutoff, ..
+            } if gap <= cutoff * a0 => -f0 * (1.0 + gap.max(0.0) / a0).powf(-gamma),
             _ => 0.0,
         }
     }
@@ -52,7 +62,9 @@ impl InteractionLaw for BpmLaw {
     /// `U(g) = -F0 a0/(γ-1) [(1 + g/a0)^(1-γ) - (1 + cutoff)^(1-γ)]`, constant below contact.
     fn potential(&self, gap: f64, a0: f64) -> f64 {
         match *self {
-            BpmLaw::Cohesive { f0, gamma, cutoff } if gap <= cutoff * a0 => {
+            BpmLaw::Cohesive {
+                f0, gamma, cutoff, ..
+            } if gap <= cutoff * a0 => {
                 let x = |g: f64| (1.0 + g / a0).powf(1.0 - gamma);
                 -f0 * a0 / (gamma - 1.0) * (x(gap.max(0.0)) - x(cutoff * a0))
             }

@@ -1,7 +1,9 @@
 //! Grain-level measures of BPM aggregates (METHODS.md §2.4).
 
-use crate::cd::Bodies;
+use super::BpmLaw;
+use crate::cd::{Bodies, InteractionLaw, LawTable, Partner, Scene};
 use crate::geom::{CellList, V2};
+use nalgebra::Matrix2;
 
 /// Area of a grain by morphological closing (the recommended convention of METHODS.md
 /// §2.4): the union of its disks, dilated then eroded by `s` (the largest particle radius),
@@ -104,6 +106,54 @@ pub fn escaped(b: &Bodies, cutoff: f64) -> usize {
             !held && size[&b.group[i]] > 1
         })
         .count()
+}
+
+/// The internal stress of one grain, split by force type: `attraction` from Eq. (1) at
+/// every pair within the cut-off, `contact` from the unilateral reactions. Love-Weber
+/// averages σ = (1/A) Σ f ℓ⊗n over the grain's own pairs (ℓ = centre distance, n the
+/// normal, compression positive), from the last step's impulses.
+#[derive(Clone, Copy, Debug)]
+pub struct GrainStress {
+    pub attraction: Matrix2<f64>,
+    pub contact: Matrix2<f64>,
+}
+
+impl GrainStress {
+    pub fn of(scene: &Scene<BpmLaw>, area: f64) -> Self {
+        let b = &scene.bodies;
+        let h = scene.params.dt;
+        let mut s = GrainStress {
+            attraction: Matrix2::zeros(),
+            contact: Matrix2::zeros(),
+        };
+        for c in &scene.contacts {
+            let (Partner::Body(j), LawTable::<BpmLaw>::SAME_GROUP) = (c.j, c.law) else {
+                continue;
+            };
+            let a0 = b.radius[c.i as usize] + b.radius[j as usize];
+            let nn = (a0 + c.gap) * c.n * c.n.transpose() / area;
+            s.attraction += scene.laws.get(c.law).smooth_force(c.gap, a0) * nn;
+            s.contact += c.p_n / h * nn;
+        }
+        s
+    }
+
+    /// The isotropic tension the attraction holds the grain under, −tr(σ_att)/2 (Pa,
+    /// positive): the cohesive prestress σ_c.
+    pub fn prestress(&self) -> f64 {
+        -0.5 * self.attraction.trace()
+    }
+
+    /// Mobilised friction of the contact network, (σ1 − σ2)/(σ1 + σ2) of its principal
+    /// stresses: the sine of its friction angle. The contacts carry the load plus σ_c, so
+    /// at yield this is the internal friction of frictionless disks, and an unconfined
+    /// grain's plateau is 2 σ_c s/(1 − s) (README, "the plateau level").
+    pub fn mobilised_friction(&self) -> f64 {
+        let m = self.contact;
+        let mean = 0.5 * m.trace();
+        let radius = (0.25 * (m[(0, 0)] - m[(1, 1)]).powi(2) + m[(0, 1)] * m[(1, 0)]).sqrt();
+        if mean > 0.0 { radius / mean } else { 0.0 }
+    }
 }
 
 #[cfg(test)]

@@ -10,7 +10,9 @@ pub enum Partner {
 
 /// One candidate contact, frozen for a step: disk `i` against `j`, normal `n` from `j` into
 /// `i`, gap at the detection configuration, the diagonal Delassus terms, and its impulse
-/// (p_n, p_t) over the step (N s/m). Mean contact force = impulse / h.
+/// (p_n, p_t) over the step (N s/m), and the rolling impulse p_r: the moment impulse
+/// ℓ p_r on `i` (−ℓ p_r on `j`), ℓ = r_i r_j/(r_i + r_j), or r_i on a wall (METHODS.md
+/// §1.10). Mean contact force = impulse / h.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Contact {
     pub i: u32,
@@ -22,6 +24,7 @@ pub struct Contact {
     pub w_tt: f64,
     pub p_n: f64,
     pub p_t: f64,
+    pub p_r: f64,
 }
 
 impl Contact {

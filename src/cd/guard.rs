@@ -101,6 +101,7 @@ mod tests {
             f0: 2.0,
             gamma: 7.0,
             cutoff: 1.0,
+            rolling: 0.0,
         };
         let a0 = 0.3;
         assert_eq!(law.potential(1.01 * a0, a0), 0.0);

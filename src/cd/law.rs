@@ -9,6 +9,12 @@ pub trait InteractionLaw: Send + Sync {
     /// Coulomb friction coefficient (0 skips the tangential solve and the rotations it drives).
     fn friction(&self) -> f64;
 
+    /// Rolling-resistance coefficient μ_r (METHODS.md §1.10): the relative rotation of the
+    /// two disks is resisted by a moment up to μ_r ℓ p_n, ℓ = r_i r_j/(r_i + r_j). 0: none.
+    fn rolling(&self) -> f64 {
+        0.0
+    }
+
     /// Range beyond contact (a gap, m) over which `smooth_force` acts; `a0` = r_i + r_j.
     fn range(&self, _a0: f64) -> f64 {
         0.0

@@ -25,24 +25,36 @@ pub struct NlgsReport {
     pub residual: f64,
 }
 
-/// Applies the impulse increment (dp_n, dp_t) of contact `c` to its bodies.
+/// Lever ℓ of the rolling impulse of a contact between disks of radii `ri` and `rj`
+/// (`rj` = 0: a wall, ℓ = r_i).
+#[inline(always)]
+fn lever(ri: f64, rj: f64) -> f64 {
+    if rj > 0.0 { ri * rj / (ri + rj) } else { ri }
+}
+
+/// Applies the impulse increment (dp_n, dp_t, dp_r) of contact `c` to its bodies.
 #[inline]
-fn apply(c: &Contact, b: &mut Bodies, dp_n: f64, dp_t: f64) {
+fn apply(c: &Contact, b: &mut Bodies, dp_n: f64, dp_t: f64, dp_r: f64) {
     let i = c.i as usize;
     let p = dp_n * c.n + dp_t * perp(c.n);
+    let rj = match c.j {
+        Partner::Body(j) => b.radius[j as usize],
+        Partner::Wall(_) => 0.0,
+    };
+    let m_r = lever(b.radius[i], rj) * dp_r;
     b.vel[i] += b.inv_mass[i] * p;
-    b.omega[i] -= b.inv_inertia[i] * b.radius[i] * dp_t;
+    b.omega[i] += b.inv_inertia[i] * (m_r - b.radius[i] * dp_t);
     if let Partner::Body(j) = c.j {
         let j = j as usize;
         b.vel[j] -= b.inv_mass[j] * p;
-        b.omega[j] -= b.inv_inertia[j] * b.radius[j] * dp_t;
+        b.omega[j] -= b.inv_inertia[j] * (m_r + b.radius[j] * dp_t);
     }
 }
 
 /// Applies every contact's current impulse (the warm start) to the free velocities.
 pub fn apply_all(contacts: &[Contact], b: &mut Bodies) {
     for c in contacts {
-        apply(c, b, c.p_n, c.p_t);
+        apply(c, b, c.p_n, c.p_t, c.p_r);
     }
 }
 
@@ -72,7 +84,7 @@ struct Dof {
 
 /// A contact as the sweeps see it: its bodies in the packed array (`j` ≥ the number of disks
 /// for a wall), its frame and diagonal Delassus terms, the gap shift max(g, 0)/(θh), its
-/// impulse, and its index in the step's contact list for the write-back.
+/// impulses, and its index in the step's contact list for the write-back.
 #[derive(Clone, Copy, Debug)]
 struct Row {
     i: u32,
@@ -81,15 +93,26 @@ struct Row {
     law: u16,
     /// false: a frictionless contact whose tangential solve is skipped (p_t stays 0).
     frictional: bool,
+    /// true: the law has rolling resistance (a third impulse, p_r).
+    rolling: bool,
     n: V2,
     shift: f64,
     w_nn: f64,
     w_tt: f64,
     p_n: f64,
     p_t: f64,
+    p_r: f64,
 }
 
-/// One local solve (METHODS.md §1.5) on packed data; returns the impulse before and after.
+/// One local solve's impulses (p_n, p_t, p_r) before and after, and its diagonal Delassus
+/// terms, for the convergence norms.
+struct Update {
+    old: [f64; 3],
+    new: [f64; 3],
+    w: [f64; 3],
+}
+
+/// One local solve (METHODS.md §1.5) on packed data: (p_n, p_t), then the rolling impulse.
 /// `dofs` is a raw pointer so that the coloured sweep can run rows of one colour on several
 /// threads; the caller guarantees that no other thread writes bodies `r.i`, `r.j` meanwhile.
 ///
@@ -102,33 +125,54 @@ unsafe fn update_row<L: InteractionLaw>(
     dofs: *mut Dof,
     n_bodies: u32,
     laws: &LawTable<L>,
-) -> ([f64; 2], [f64; 2]) {
+) -> Update {
+    let old = [r.p_n, r.p_t, r.p_r];
     // SAFETY: per the contract above.
+    unsafe { update_contact(r, dofs, n_bodies, laws) };
+    let w_rr = if r.rolling {
+        // SAFETY: as above.
+        unsafe { update_rolling(r, laws.get(r.law).rolling(), dofs, n_bodies) }
+    } else {
+        0.0
+    };
+    Update {
+        old,
+        new: [r.p_n, r.p_t, r.p_r],
+        w: [r.w_nn, r.w_tt, w_rr],
+    }
+}
+
+/// Signorini and Coulomb together (the law's local solver).
+///
+/// # Safety
+/// As `update_row`.
+#[inline(always)]
+unsafe fn update_contact<L: InteractionLaw>(
+    r: &mut Row,
+    dofs: *mut Dof,
+    n_bodies: u32,
+    laws: &LawTable<L>,
+) {
+    // SAFETY: per the contract of `update_row`.
     let (bi, bj) = unsafe { (&mut *dofs.add(r.i as usize), *dofs.add(r.j as usize)) };
+    let dv = bi.v - bj.v;
+    let hat_n = dv.dot(&r.n) - r.w_nn * r.p_n + r.shift;
+    let law = laws.get(r.law);
     if !r.frictional {
-        // μ = 0: p_t = 0 and no spin change, so only the normal row is solved.
-        let u_n = (bi.v - bj.v).dot(&r.n);
-        let hat_n = u_n - r.w_nn * r.p_n + r.shift;
-        let (p_n, _) = laws.get(r.law).solve(hat_n, 0.0, r.w_nn, r.w_tt);
-        let old = [r.p_n, 0.0];
+        // μ = 0: p_t stays 0 and no spin changes, so only the normal row is solved.
+        let p_n = law.solve(hat_n, 0.0, r.w_nn, r.w_tt).0;
         let p = (p_n - r.p_n) * r.n;
         bi.v += bi.im * p;
         if r.j < n_bodies {
-            // SAFETY: as below.
-            let bj = unsafe { &mut *dofs.add(r.j as usize) };
-            bj.v -= bj.im * p;
+            // SAFETY: as above; j != i (a disk never touches itself).
+            unsafe { (*dofs.add(r.j as usize)).v -= bj.im * p };
         }
         r.p_n = p_n;
-        return (old, [p_n, 0.0]);
+        return;
     }
     let t = perp(r.n);
-    let dv = bi.v - bj.v;
-    let u_n = dv.dot(&r.n);
     let u_t = dv.dot(&t) - bi.r * bi.w - bj.r * bj.w;
-    let hat_n = u_n - r.w_nn * r.p_n + r.shift;
-    let hat_t = u_t - r.w_tt * r.p_t;
-    let (p_n, p_t) = laws.get(r.law).solve(hat_n, hat_t, r.w_nn, r.w_tt);
-    let old = [r.p_n, r.p_t];
+    let (p_n, p_t) = law.solve(hat_n, u_t - r.w_tt * r.p_t, r.w_nn, r.w_tt);
     let (dp_n, dp_t) = (p_n - r.p_n, p_t - r.p_t);
     let p = dp_n * r.n + dp_t * t;
     bi.v += bi.im * p;
@@ -141,7 +185,35 @@ unsafe fn update_row<L: InteractionLaw>(
     }
     r.p_n = p_n;
     r.p_t = p_t;
-    (old, [p_n, p_t])
+}
+
+/// Rolling resistance (METHODS.md §1.10), solved after (p_n, p_t) as its own clamped
+/// component: the rolling velocity u_r = ℓ (ω_i − ω_j) is stopped by an impulse p_r with
+/// |p_r| ≤ μ_r p_n, i.e. a moment up to μ_r ℓ p_n/h. Returns W_rr = ℓ² (1/I_i + 1/I_j).
+///
+/// # Safety
+/// As `update_row`.
+#[inline(always)]
+unsafe fn update_rolling(r: &mut Row, mu_r: f64, dofs: *mut Dof, n_bodies: u32) -> f64 {
+    // SAFETY: per the contract of `update_row`; a wall (r.j ≥ n_bodies) is never written.
+    let (bi, bj) = unsafe { (&mut *dofs.add(r.i as usize), *dofs.add(r.j as usize)) };
+    // 1/I = (r/I)/r; a wall has r = 0 and does not turn.
+    let inv_i = bi.ir / bi.r;
+    let inv_j = if r.j < n_bodies { bj.ir / bj.r } else { 0.0 };
+    let l = lever(bi.r, bj.r);
+    let w_rr = l * l * (inv_i + inv_j);
+    let hat_r = l * (bi.w - bj.w) - w_rr * r.p_r;
+    let bound = mu_r * r.p_n;
+    let p_r = (-hat_r / w_rr).clamp(-bound, bound);
+    let m = l * (p_r - r.p_r);
+    bi.w += inv_i * m;
+    if r.j < n_bodies {
+        // SAFETY: as above.
+        let bj = unsafe { &mut *dofs.add(r.j as usize) };
+        bj.w -= inv_j * m;
+    }
+    r.p_r = p_r;
+    w_rr
 }
 
 /// A pointer to the packed bodies that may cross threads; see `update_row`.
@@ -214,12 +286,14 @@ pub fn solve<L: InteractionLaw>(
                 k,
                 law: c.law,
                 frictional: !data.skip_frictionless || data.laws.get(c.law).friction() > 0.0,
+                rolling: data.laws.get(c.law).rolling() > 0.0,
                 n: c.n,
                 shift: c.gap.max(0.0) * data.gap_rate,
                 w_nn: c.w_nn,
                 w_tt: c.w_tt,
                 p_n: c.p_n,
                 p_t: c.p_t,
+                p_r: c.p_r,
             }
         })
         .collect();
@@ -256,8 +330,7 @@ pub fn solve<L: InteractionLaw>(
             let mut norms = Norms::default();
             for r in rows.iter_mut() {
                 // SAFETY: as above.
-                let (old, new) = unsafe { update_row(r, ptr.get(), nb, laws) };
-                norms.add(old, new, r.w_nn, r.w_tt);
+                norms.add(unsafe { update_row(r, ptr.get(), nb, laws) });
             }
             norms
         };
@@ -276,6 +349,7 @@ pub fn solve<L: InteractionLaw>(
         let c = &mut contacts[r.k as usize];
         c.p_n = r.p_n;
         c.p_t = r.p_t;
+        c.p_r = r.p_r;
     }
     for (i, d) in dofs[..b.len()].iter().enumerate() {
         b.vel[i] = d.v;
@@ -376,8 +450,7 @@ impl Colouring {
                 let mut norms = Norms::default();
                 for r in chunk.iter_mut() {
                     // SAFETY: rows of one colour share no disk (or run on one thread).
-                    let (old, new) = unsafe { update_row(r, ptr.get(), nb, laws) };
-                    norms.add(old, new, r.w_nn, r.w_tt);
+                    norms.add(unsafe { update_row(r, ptr.get(), nb, laws) });
                 }
                 norms
             };
@@ -419,24 +492,31 @@ impl Norms {
         self.sum_e += o.sum_e;
     }
 
-    fn add(&mut self, old: [f64; 2], new: [f64; 2], w_nn: f64, w_tt: f64) {
-        if old == [0.0, 0.0] && new == [0.0, 0.0] {
+    #[inline(always)]
+    fn add(&mut self, u: Update) {
+        let Update { old, new, w } = u;
+        if old == [0.0; 3] && new == [0.0; 3] {
             return;
         }
         self.active += 1;
-        let du = [w_nn * (new[0] - old[0]), w_tt * (new[1] - old[1])];
-        let pm = [0.5 * (new[0] + old[0]), 0.5 * (new[1] + old[1])];
-        let du2 = du[0] * du[0] + du[1] * du[1];
-        let pm2 = pm[0] * pm[0] + pm[1] * pm[1];
-        let wp = |p: [f64; 2]| [w_nn * p[0], w_tt * p[1]];
-        let (wn, wo) = (wp(new), wp(old));
+        let (mut du2, mut pm2, mut du_pm, mut wp2, mut e) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for k in 0..3 {
+            let du = w[k] * (new[k] - old[k]);
+            let pm = 0.5 * (new[k] + old[k]);
+            let (wn, wo) = (w[k] * new[k], w[k] * old[k]);
+            du2 += du * du;
+            pm2 += pm * pm;
+            du_pm += du * pm;
+            wp2 += 0.5 * (wn * wn + wo * wo);
+            e += 0.5 * (new[k] * wn + old[k] * wo);
+        }
         self.sum_du2 += du2;
         self.max_du = self.max_du.max(du2.sqrt());
-        self.sum_wp2 += 0.5 * (wn[0] * wn[0] + wn[1] * wn[1] + wo[0] * wo[0] + wo[1] * wo[1]);
+        self.sum_wp2 += wp2;
         self.sum_du2_p2 += du2 * pm2;
         self.max_du_p = self.max_du_p.max((du2 * pm2).sqrt());
-        self.sum_du_p += du[0] * pm[0] + du[1] * pm[1];
-        self.sum_e += 0.5 * (new[0] * wn[0] + new[1] * wn[1] + old[0] * wo[0] + old[1] * wo[1]);
+        self.sum_du_p += du_pm;
+        self.sum_e += e;
     }
 
     /// max(QuadDV, QuadDVR, |MeanDVoR|, MaxDV/16.67, MaxDVR/16.67), each already divided

@@ -328,6 +328,7 @@ impl<L: InteractionLaw> Scene<L> {
                     w_tt: mi + mj + ri * ri * b.inv_inertia[iu] + rj * rj * b.inv_inertia[ju],
                     p_n: 0.0,
                     p_t: 0.0,
+                    p_r: 0.0,
                 })
             });
         let walls = (0..b.len())
@@ -348,6 +349,7 @@ impl<L: InteractionLaw> Scene<L> {
                             w_tt: mi + ri * ri * b.inv_inertia[i],
                             p_n: 0.0,
                             p_t: 0.0,
+                            p_r: 0.0,
                         }
                     })
                 })
@@ -386,6 +388,7 @@ fn warm_start(new: &mut [Contact], old: &[Contact]) {
         if k < old.len() && old[k].key() == c.key() {
             c.p_n = old[k].p_n;
             c.p_t = old[k].p_t;
+            c.p_r = old[k].p_r;
         }
     }
 }

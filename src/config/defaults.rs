@@ -32,6 +32,8 @@ pub const SQUARE_BOX_PHI: f64 = 0.82;
 pub const BPM_GAMMA: f64 = 7.0;
 /// Cut-off of Eq. (1) in units of a0: the paper's δ = a0.
 pub const BPM_CUTOFF: f64 = 1.0;
+/// Rolling resistance between particles of one grain: none, as in the paper.
+pub const BPM_ROLLING: f64 = 0.0;
 
 /// BPM time step in units of t0 = sqrt(m a0/F0) of the smallest particle: the explicit
 /// attraction is stable below about 0.53 t0 (METHODS.md §1.9).

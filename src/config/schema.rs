@@ -238,6 +238,10 @@ pub struct Bpm {
     /// Cut-off gap in units of a0 = r_i + r_j.
     #[serde(default = "cutoff")]
     pub cutoff: f64,
+    /// Rolling resistance μ_r between particles of one grain (METHODS.md §1.10): a moment up
+    /// to μ_r ℓ F_n, ℓ = r_i r_j/(r_i + r_j), resists their relative rotation. The paper: 0.
+    #[serde(default = "rolling")]
+    pub rolling_resistance: f64,
     /// Primary-particle density (kg/m³); the paper gives none, its grains' 990 is used.
     #[serde(default = "density")]
     pub density: f64,
@@ -248,6 +252,9 @@ fn gamma() -> f64 {
 }
 fn cutoff() -> f64 {
     d::BPM_CUTOFF
+}
+fn rolling() -> f64 {
+    d::BPM_ROLLING
 }
 
 /// Material point method: linear elastic grains in plane strain.

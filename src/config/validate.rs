@@ -266,6 +266,7 @@ fn discretise(d: &Discretise) -> Result<(), Failure> {
         positive("discretise.bpm.f0", b.f0)?;
         positive("discretise.bpm.gamma", b.gamma)?;
         positive("discretise.bpm.cutoff", b.cutoff)?;
+        non_negative("discretise.bpm.rolling_resistance", b.rolling_resistance)?;
         positive("discretise.bpm.density", b.density)?;
     }
     if methods.contains(&Method::Mpm) {

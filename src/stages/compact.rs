@@ -29,6 +29,10 @@ pub struct Row {
     pub area: f64,
     pub escaped: usize,
     pub nlgs_iterations: f64,
+    /// Cohesive prestress σ_c of the grain (single grain; Pa): `GrainStress::prestress`.
+    pub sigma_c: f64,
+    /// Mobilised friction of its contact network: `GrainStress::mobilised_friction`.
+    pub sin_phi: f64,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -50,6 +54,9 @@ pub struct CompactFigures {
     pub contact_updates: u64,
     /// Mean σ <a0>/F0 over ε in [0.1, final] (single grain: the plastic plateau).
     pub plateau: f64,
+    /// Means over the same rows of σ_c <a0>/F0 and of the mobilised friction (single grain).
+    pub plateau_prestress: f64,
+    pub plateau_sin_phi: f64,
     /// Slope dσ/dε below ε = 0.02 (Pa).
     pub small_strain_slope: f64,
     /// Largest relative change of the grain area during the test (single grain).
@@ -228,6 +235,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, cutoff: f64) -> std::i
         r_max,
         2.0 * b.radius.iter().cloned().fold(f64::INFINITY, f64::min) / 8.0,
     );
+    let internal = measure::GrainStress::of(&st.scene, area);
     let row = Row {
         time: st.scene.time,
         strain: (st.h0 / gap(st)).ln(),
@@ -238,6 +246,8 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, cutoff: f64) -> std::i
         area,
         escaped: measure::escaped(b, cutoff),
         nlgs_iterations: st.iterations_since as f64 / st.since_record.max(1) as f64,
+        sigma_c: internal.prestress(),
+        sin_phi: internal.mobilised_friction(),
     };
     st.rows.push(row);
     st.impulse_bottom = 0.0;
@@ -252,12 +262,13 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, cutoff: f64) -> std::i
 }
 
 fn csv(rows: &[Row]) -> String {
-    let mut csv =
-        String::from("time,strain,force,width,sigma,force_top,area,escaped,nlgs_iterations\n");
+    let mut csv = String::from(
+        "time,strain,force,width,sigma,force_top,area,escaped,nlgs_iterations,sigma_c,sin_phi\n",
+    );
     for r in rows {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             r.time,
             r.strain,
             r.force,
@@ -266,7 +277,9 @@ fn csv(rows: &[Row]) -> String {
             r.force_top,
             r.area,
             r.escaped,
-            r.nlgs_iterations
+            r.nlgs_iterations,
+            r.sigma_c,
+            r.sin_phi
         );
     }
     csv
@@ -276,9 +289,12 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(Compacted, String), String> {
     let mut f = st.figures;
     let rows = st.rows;
     let plateau: Vec<&Row> = rows.iter().filter(|r| r.strain >= 0.1).collect();
-    f.plateau = plateau.iter().map(|r| r.sigma).sum::<f64>() / plateau.len().max(1) as f64
-        * f.mean_a0
-        / f.f0;
+    let mean = |v: fn(&Row) -> f64| {
+        plateau.iter().map(|r| v(r)).sum::<f64>() / plateau.len().max(1) as f64
+    };
+    f.plateau = mean(|r| r.sigma) * f.mean_a0 / f.f0;
+    f.plateau_prestress = mean(|r| r.sigma_c) * f.mean_a0 / f.f0;
+    f.plateau_sin_phi = mean(|r| r.sin_phi);
     // least-squares slope through the origin of σ(ε) below 2% strain
     let small: Vec<&Row> = rows
         .iter()
@@ -296,10 +312,12 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(Compacted, String), String> {
     ctx.write("timeseries.csv", csv(&rows).as_bytes())
         .map_err(|e| format!("writing output in {}: {e}", ctx.dir.display()))?;
     let summary = format!(
-        "{} steps, {:.1} NLGS sweeps/step, plateau σ<a0>/F0 = {:.3}, area change {:.1}%, {} escaped",
+        "{} steps, {:.1} NLGS sweeps/step, plateau σ<a0>/F0 = {:.3} (prestress {:.3}, mobilised friction {:.3}), area change {:.1}%, {} escaped",
         f.steps,
         f.nlgs_iterations as f64 / f.steps.max(1) as f64,
         f.plateau,
+        f.plateau_prestress,
+        f.plateau_sin_phi,
         100.0 * f.area_change,
         f.escaped_max
     );

@@ -80,6 +80,7 @@ pub fn run_bpm(
         f0: bpm.f0,
         gamma: bpm.gamma,
         cutoff: bpm.cutoff,
+        rolling: bpm.rolling_resistance,
     };
     let t0 = t0(&bodies, bpm.f0);
     // Relax the aggregates under their own attraction, alone (no walls, no gravity).
