@@ -108,7 +108,7 @@ pub fn escaped(b: &Bodies, cutoff: f64) -> usize {
         .count()
 }
 
-/// The internal stress of one grain, split by force type: `attraction` from Eq. (1) at
+/// The internal stress of a scene's one grain, split by force type: `attraction` from Eq. (1) at
 /// every pair within the cut-off, `contact` from the unilateral reactions. Love-Weber
 /// averages σ = (1/A) Σ f ℓ⊗n over the grain's own pairs (ℓ = centre distance, n the
 /// normal, compression positive), from the last step's impulses.

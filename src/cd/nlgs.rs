@@ -42,12 +42,15 @@ fn apply(c: &Contact, b: &mut Bodies, dp_n: f64, dp_t: f64, dp_r: f64) {
         Partner::Wall(_) => 0.0,
     };
     let m_r = lever(b.radius[i], rj) * dp_r;
+    // (the moment in a separate sum: without rolling resistance it adds an exact zero)
     b.vel[i] += b.inv_mass[i] * p;
-    b.omega[i] += b.inv_inertia[i] * (m_r - b.radius[i] * dp_t);
+    b.omega[i] -= b.inv_inertia[i] * b.radius[i] * dp_t;
+    b.omega[i] += b.inv_inertia[i] * m_r;
     if let Partner::Body(j) = c.j {
         let j = j as usize;
         b.vel[j] -= b.inv_mass[j] * p;
-        b.omega[j] -= b.inv_inertia[j] * (m_r + b.radius[j] * dp_t);
+        b.omega[j] -= b.inv_inertia[j] * b.radius[j] * dp_t;
+        b.omega[j] -= b.inv_inertia[j] * m_r;
     }
 }
 
@@ -492,31 +495,50 @@ impl Norms {
         self.sum_e += o.sum_e;
     }
 
+    /// Sums in the order of the two-component norms, the rolling terms after their kind:
+    /// without rolling resistance they add exact zeros and the norms keep their bits.
     #[inline(always)]
     fn add(&mut self, u: Update) {
-        let Update { old, new, w } = u;
-        if old == [0.0; 3] && new == [0.0; 3] {
+        let Update { old: o, new: n, w } = u;
+        if o == [0.0; 3] && n == [0.0; 3] {
             return;
         }
         self.active += 1;
-        let (mut du2, mut pm2, mut du_pm, mut wp2, mut e) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for k in 0..3 {
-            let du = w[k] * (new[k] - old[k]);
-            let pm = 0.5 * (new[k] + old[k]);
-            let (wn, wo) = (w[k] * new[k], w[k] * old[k]);
-            du2 += du * du;
-            pm2 += pm * pm;
-            du_pm += du * pm;
-            wp2 += 0.5 * (wn * wn + wo * wo);
-            e += 0.5 * (new[k] * wn + old[k] * wo);
-        }
+        let du = [
+            w[0] * (n[0] - o[0]),
+            w[1] * (n[1] - o[1]),
+            w[2] * (n[2] - o[2]),
+        ];
+        let pm = [
+            0.5 * (n[0] + o[0]),
+            0.5 * (n[1] + o[1]),
+            0.5 * (n[2] + o[2]),
+        ];
+        let du2 = du[0] * du[0] + du[1] * du[1] + du[2] * du[2];
+        let pm2 = pm[0] * pm[0] + pm[1] * pm[1] + pm[2] * pm[2];
+        let (wn, wo) = (
+            [w[0] * n[0], w[1] * n[1], w[2] * n[2]],
+            [w[0] * o[0], w[1] * o[1], w[2] * o[2]],
+        );
         self.sum_du2 += du2;
         self.max_du = self.max_du.max(du2.sqrt());
-        self.sum_wp2 += wp2;
+        self.sum_wp2 += 0.5
+            * (wn[0] * wn[0]
+                + wn[1] * wn[1]
+                + wn[2] * wn[2]
+                + wo[0] * wo[0]
+                + wo[1] * wo[1]
+                + wo[2] * wo[2]);
         self.sum_du2_p2 += du2 * pm2;
         self.max_du_p = self.max_du_p.max((du2 * pm2).sqrt());
-        self.sum_du_p += du_pm;
-        self.sum_e += e;
+        self.sum_du_p += du[0] * pm[0] + du[1] * pm[1] + du[2] * pm[2];
+        self.sum_e += 0.5
+            * (n[0] * wn[0]
+                + n[1] * wn[1]
+                + n[2] * wn[2]
+                + o[0] * wo[0]
+                + o[1] * wo[1]
+                + o[2] * wo[2]);
     }
 
     /// max(QuadDV, QuadDVR, |MeanDVoR|, MaxDV/16.67, MaxDVR/16.67), each already divided
