@@ -199,19 +199,22 @@ fn analyse_of_bpm_grains_gives_the_plateau_and_slope_of_their_checkpoints() {
             .collect();
         let slope = small.iter().map(|r| r.strain * r.sigma).sum::<f64>()
             / small.iter().map(|r| r.strain * r.strain).sum::<f64>();
-        let late: Vec<f64> = c
-            .rows
-            .iter()
-            .filter(|r| r.strain >= 0.1)
-            .map(|r| r.sigma)
-            .collect();
-        let plateau_stress = late.iter().sum::<f64>() / late.len() as f64;
+        let late = |f: fn(&softgrain::stages::compact::Row) -> f64| {
+            let v: Vec<f64> = c.rows.iter().filter(|r| r.strain >= 0.1).map(f).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        let plateau_stress = late(|r| r.sigma);
         let fig = &c.figures;
         let plateau = plateau_stress * fig.mean_a0 / fig.f0;
         for (key, expected) in [
             ("small_strain_slope", slope),
             ("plateau_stress", plateau_stress),
             ("plateau", plateau),
+            (
+                "plateau_prestress",
+                late(|r| r.sigma_c) * fig.mean_a0 / fig.f0,
+            ),
+            ("plateau_sin_phi", late(|r| r.sin_phi)),
         ] {
             let got = case[key].as_f64().unwrap();
             assert!(
@@ -226,5 +229,10 @@ fn analyse_of_bpm_grains_gives_the_plateau_and_slope_of_their_checkpoints() {
         checked += 1;
     }
     assert_eq!(checked, 2, "two particle-size cases");
+    let report = std::fs::read_to_string(an.join("report.md")).unwrap();
+    assert!(
+        report.contains("## BPM plateaus and what sets them"),
+        "{report}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

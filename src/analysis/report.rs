@@ -89,6 +89,29 @@ fn fits(cases: &[CaseSummary]) -> String {
     t
 }
 
+/// The BPM grains' plateau beside what sets it (README, "the plateau level"): the
+/// attraction's prestress σ_c and the contact network's mobilised friction s give a
+/// grain-mean vertical stress 2 σ_c s/(1 − s), all in units of F0/<a0>.
+fn plateaus(cases: &[CaseSummary]) -> String {
+    let mut t = String::from(
+        "| case | plateau σ<a0>/F0 | prestress σ_c<a0>/F0 | mobilised friction s | 2 σ_c s/(1 − s) |\n| --- | --- | --- | --- | --- |\n",
+    );
+    for c in cases {
+        if let (Some(p), Some(sc), Some(s)) = (c.plateau, c.plateau_prestress, c.plateau_sin_phi) {
+            let _ = writeln!(
+                t,
+                "| {} | {} | {} | {} | {} |",
+                c.case,
+                num(p),
+                num(sc),
+                num(s),
+                num(2.0 * sc * s / (1.0 - s))
+            );
+        }
+    }
+    t
+}
+
 /// The whole report. `figures` are (title, PNG file name) in drawing order.
 pub fn markdown(
     pipeline: &str,
@@ -113,6 +136,10 @@ pub fn markdown(
     }
     r.push_str("## The paper's figures beside this run\n\n");
     r.push_str(&comparison(refs, cases));
+    if cases.iter().any(|c| c.plateau_prestress.is_some()) {
+        r.push_str("\n## BPM plateaus and what sets them\n\nThe attraction holds a grain under the prestress σ_c; its frictionless contact network yields at the mobilised friction s, so with free sides the grain-mean vertical stress is 2 σ_c s/(1 − s) (README, \"the plateau level\"; σ = F/L, over the widest section, lies below it). The paper's σ_Y = F0/<a0> is the scale, not the level.\n\n");
+        r.push_str(&plateaus(cases));
+    }
     if cases.iter().any(|c| c.fit.is_some()) {
         r.push_str("\n## Fits of Eqs. 14 and 16 (Φ against x = σ/σ0 − 1, R² of Φ)\n\n");
         r.push_str(&fits(cases));
@@ -167,5 +194,26 @@ mod tests {
             &[],
         );
         assert!(md.contains("![Fig. 11](fig11.png)") && md.contains("Eq. 16, slope"));
+        assert!(!md.contains("BPM plateaus"));
+    }
+
+    #[test]
+    fn a_bpm_grain_gets_its_plateau_beside_the_prestress_prediction() {
+        let c = CaseSummary {
+            case: "bpm-mu0".into(),
+            method: "bpm".into(),
+            kind: "single_grain".into(),
+            plateau: Some(0.2),
+            plateau_prestress: Some(1.3),
+            plateau_sin_phi: Some(0.08),
+            ..Default::default()
+        };
+        let md = markdown("x", &paper(), &[c], &[], &[]);
+        // 2 · 1.3 · 0.08 / 0.92 = 0.2261
+        assert!(
+            md.lines()
+                .any(|l| l == "| bpm-mu0 | 0.2000 | 1.3000 | 0.0800 | 0.2261 |"),
+            "{md}"
+        );
     }
 }
