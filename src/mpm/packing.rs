@@ -68,10 +68,10 @@
 //!     gap approach 2-3e-3 h_g per step more than the held nodes. A node force moves the
 //!     node, not those points (README, "Why held nodes do not hold the points"). Tried:
 //!     the position law with anticipating collisions (worse), and that law corrected by the
-//!     points' approach (the coupling diverged). A point-pair constraint whose force is
-//!     spread by `S_ip` roughly halves the worst overlap (0.86 → 0.64 and 1.43 → 0.63 h_g)
-//!     at 13-22 times the cost; it is kept as a patch, `bench/experiments/`, not in the
-//!     code.
+//!     points' approach (the coupling diverged). A point-pair contact added at each node
+//!     (force spread by `S_ip`) cuts the packing's overlap about threefold, but the
+//!     two-grain stack then carries 0.58 of Johnson's force, with lips of 0.8 h_g beside
+//!     the held pairs. It is kept as a patch, `bench/experiments/`, not in the code.
 //!   - Fixed: two defects that had made it far worse. The position law between grains
 //!     pumped energy (`super::node_contact`). The linear-elastic law saw no strain in a
 //!     linearised rotation, so rocking grains swelled by 15 % (`super::material`). The
