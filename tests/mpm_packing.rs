@@ -5,7 +5,7 @@
 use nalgebra::Vector2;
 use softgrain::mpm::analytic::johnson_force;
 use softgrain::mpm::material::{Material, MaterialKind};
-use softgrain::mpm::node_contact::{NlgsParams, Partner};
+use softgrain::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use softgrain::mpm::packing::{Packing, PackingParams, StepReport, TOP};
 use softgrain::mpm::solve::SolverParams;
 
@@ -24,6 +24,7 @@ fn params(friction: f64) -> PackingParams {
         solver: SolverParams::default(),
         cell: 0.2 * R,
         friction,
+        contact: ContactKind::Node,
         wall_friction: 0.0,
         gravity: 0.0,
         wall_velocity: V,
@@ -67,9 +68,10 @@ fn vertical_extent(pk: &Packing, g: usize) -> f64 {
 
 /// Two equal grains stacked between the floor and the top wall, side walls away; grid
 /// cells of `cell` R.
-fn stacked(friction: f64, nlgs: NlgsParams, cell: f64) -> Packing {
+fn stacked(friction: f64, nlgs: NlgsParams, cell: f64, contact: ContactKind) -> Packing {
     let mut p = params(friction);
     p.nlgs = nlgs;
+    p.contact = contact;
     p.cell = cell * R;
     let centres = [Vector2::new(2.0 * R, R), Vector2::new(2.0 * R, 3.0 * R)];
     let mut pk = Packing::new(p, &centres, &[R, R], 4.0 * R, 4.0 * R).unwrap();
@@ -103,9 +105,18 @@ fn run(pk: &mut Packing, eps: f64, tail: usize) -> (Vec<StepReport>, [f64; 6]) {
     (reports, mean)
 }
 
+/// Both contact kinds: at the node (the paper's), and at the node plus the surface layers.
+const KINDS: [ContactKind; 2] = [ContactKind::Node, ContactKind::Surface];
+
 #[test]
 fn two_grains_pressed_together_carry_the_plate_force_without_interpenetrating() {
-    let mut pk = stacked(0.0, NlgsParams::default(), 0.1);
+    for kind in KINDS {
+        two_grains_pressed(kind);
+    }
+}
+
+fn two_grains_pressed(kind: ContactKind) {
+    let mut pk = stacked(0.0, NlgsParams::default(), 0.1, kind);
     let h = pk.grid.h;
     let (reports, [bottom, top, between, a, b, strain]) = run(&mut pk, 0.06, 10);
     // quasi-static: the force is transmitted unchanged through the grain-grain contact
@@ -114,7 +125,7 @@ fn two_grains_pressed_together_carry_the_plate_force_without_interpenetrating() 
     for f in [top, between] {
         assert!(
             (f - bottom).abs() < 0.02 * bottom,
-            "bottom {bottom}, top {top}, grain-grain {between}"
+            "{kind:?}: bottom {bottom}, top {top}, grain-grain {between}"
         );
     }
     // mirror-symmetric loading: both grains squeezed alike. Not exactly: the top wall
@@ -122,7 +133,10 @@ fn two_grains_pressed_together_carry_the_plate_force_without_interpenetrating() 
     // with it (measured at ε = 0.06: 0.8 % apart at Δr/R = 0.05, 7.5-8.3 % at 0.1)
     let (da, db) = (2.0 * R - a, 2.0 * R - b);
     assert!(da > 0.25 * h, "grain not compressed: {a}");
-    assert!((da - db).abs() < 0.03 * da, "compressions {da} and {db}");
+    assert!(
+        (da - db).abs() < 0.03 * da,
+        "{kind:?}: compressions {da} and {db}"
+    );
     // Johnson: a disk pressed by a disk has the contact half-width it has on a plate
     // (R and E* both halve), so each grain of the stack is the single grain at the same
     // strain, and within 5% of Johnson as that one is. Measured 0.981 here and 0.969 at
@@ -131,11 +145,11 @@ fn two_grains_pressed_together_carry_the_plate_force_without_interpenetrating() 
     let johnson = johnson_force(1e7, 0.45, R, strain).unwrap();
     assert!(
         (bottom / johnson - 1.0).abs() < 0.05,
-        "F = {bottom} N/m, Johnson {johnson}"
+        "{kind:?}: F = {bottom} N/m, Johnson {johnson}"
     );
     // no interpenetration beyond a point's half-size (h/4), the cloud's resolution
     let worst = reports.iter().map(|r| r.min_gap).fold(0.0, f64::min);
-    assert!(worst > -0.25 * h, "overlap {} cells", -worst / h);
+    assert!(worst > -0.25 * h, "{kind:?}: overlap {} cells", -worst / h);
     // mass is carried by the points: exact
     let m0 = std::f64::consts::PI * R * R * 990.0 * 2.0;
     assert!((pk.total_mass() - m0).abs() < 1e-12 * m0);
@@ -143,7 +157,7 @@ fn two_grains_pressed_together_carry_the_plate_force_without_interpenetrating() 
 
 #[test]
 fn the_coupling_iteration_converges_and_its_forces_do_not_depend_on_the_tolerance() {
-    let mut loose = stacked(0.5, NlgsParams::default(), 0.2);
+    let mut loose = stacked(0.5, NlgsParams::default(), 0.2, ContactKind::Node);
     let (reports, f_loose) = run(&mut loose, 0.03, 5);
     for r in &reports {
         assert_eq!(r.nlgs_unconverged, 0);
@@ -158,6 +172,7 @@ fn the_coupling_iteration_converges_and_its_forces_do_not_depend_on_the_toleranc
             max_sweeps: 200_000,
         },
         0.2,
+        ContactKind::Node,
     );
     let (_, f_tight) = run(&mut tight, 0.03, 5);
     for k in 0..5 {
@@ -170,6 +185,12 @@ fn the_coupling_iteration_converges_and_its_forces_do_not_depend_on_the_toleranc
 
 #[test]
 fn three_grains_meet_at_shared_nodes_with_one_contact_per_pair() {
+    for kind in KINDS {
+        three_grains(kind);
+    }
+}
+
+fn three_grains(kind: ContactKind) {
     // two grains on the floor between the side walls, a third in their groove
     let s3 = 3.0_f64.sqrt();
     let centres = [
@@ -181,6 +202,7 @@ fn three_grains_meet_at_shared_nodes_with_one_contact_per_pair() {
     // Δr/R = 0.15: the pore between the three (0.15 R from each) is within a node's reach
     let mut p = params(0.0);
     p.cell = 0.3 * R;
+    p.contact = kind;
     let mut pk = Packing::new(p, &centres, &[R, R, R], 4.0 * R, h0).unwrap();
     quasi_static(&mut pk);
     let (mut reports, mut hist) = (Vec::new(), Vec::new());
@@ -206,7 +228,10 @@ fn three_grains_meet_at_shared_nodes_with_one_contact_per_pair() {
     let tail = &hist[hist.len() - 5..];
     let b = tail.iter().map(|x| x.0).sum::<f64>() / 5.0;
     let t = tail.iter().map(|x| x.1).sum::<f64>() / 5.0;
-    assert!(t > 100.0 && (b - t).abs() < 0.03 * t, "floor {b}, top {t}");
+    assert!(
+        t > 100.0 && (b - t).abs() < 0.03 * t,
+        "{kind:?}: floor {b}, top {t}"
+    );
     // (no overlap bound here: at R = 3.3 cells the wedge contacts' point clouds overlap by
     // up to 0.44 h at 5 % strain, see the `packing` module doc; the two-grain test bounds
     // it at the pipeline's resolution)
@@ -218,13 +243,21 @@ fn three_grains_meet_at_shared_nodes_with_one_contact_per_pair() {
 /// left with 1.39 times their kinetic energy (3.2 after a second impact).
 #[test]
 fn two_free_grains_colliding_conserve_momentum() {
+    for kind in KINDS {
+        free_collision(kind);
+    }
+}
+
+fn free_collision(kind: ContactKind) {
     // a big box: no grain reaches a wall; grain 0 flies at +v, grain 1 at -v/2
     let (w, h0) = (16.0 * R, 16.0 * R);
     let centres = [
         Vector2::new(7.0 * R, 8.0 * R),
         Vector2::new(9.05 * R, 8.3 * R),
     ];
-    let mut pk = Packing::new(params(0.5), &centres, &[R, 0.8 * R], w, h0).unwrap();
+    let mut p = params(0.5);
+    p.contact = kind;
+    let mut pk = Packing::new(p, &centres, &[R, 0.8 * R], w, h0).unwrap();
     let v = 1.0;
     for (g, vx) in [(0, v), (1, -0.5 * v)] {
         pk.grains[g].v.iter_mut().for_each(|p| p.x = vx);

@@ -279,7 +279,15 @@ pub struct Mpm {
     /// B-bar against volumetric locking.
     #[serde(default = "yes")]
     pub bbar: bool,
+    /// Where contacts between grains act in packings: `node` (the paper's Eqs. 11-12,
+    /// default) or `surface` (the node plus the two grains' surface layers there: overlaps
+    /// that shrink with the grid instead of a fixed length, at about twice the cost;
+    /// README, "MPM packings").
+    #[serde(default)]
+    pub contact: ContactKind,
 }
+
+pub use crate::mpm::node_contact::ContactKind;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

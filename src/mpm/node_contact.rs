@@ -43,6 +43,13 @@
 //!   approaching `v^n` at every step, so the law above alone lets touching grains sink
 //!   into each other by `Δt |v^n·n|/2` a step. A perfectly inelastic normal impulse on
 //!   the start-of-step nodal velocities (momentum kept) removes the approach first.
+//! * **Surface contacts** (`ContactKind::Surface`, an option): a second contact at each
+//!   grain-pair node, on the two grains' surface layers (the strip's points within
+//!   `SURFACE_LAYER` of the gap-setting one). Its slot is the layer's mean stencil, so its
+//!   force moves the points that set the gap, which a node force does not. Same law,
+//!   normal and gap as the node's; its collisions act on the slots' pattern velocities.
+//! * **Slots.** A contact acts on a slot of each grain, a load pattern `P` of (node,
+//!   weight) entries; the condensed compliance is `P^T K^{-1} P`.
 //! * **NLGS.** Each contact's local problem uses its diagonal 2×2 block of `W` (projection
 //!   of `f_n`, then of `f_t` onto `[-μ f_n, μ f_n]` with the normal–tangential coupling),
 //!   and pushes its force change into the slot displacements of both grains through the
@@ -70,11 +77,13 @@ pub enum Partner {
 pub struct NodeContact {
     /// Node id on the common grid.
     pub node: usize,
-    /// Grain on the `+n` side, and its contact slot.
+    /// Grain on the `+n` side, the node's active index in it, and the contact's slot.
     pub a: usize,
+    pub node_a: usize,
     pub slot_a: usize,
     pub partner: Partner,
-    /// The partner grain's slot (unused for walls).
+    /// The same in the partner grain (unused for walls).
+    pub node_b: usize,
     pub slot_b: usize,
     /// Unit normal from the partner into `a`.
     pub normal: Vector2<f64>,
@@ -88,6 +97,9 @@ pub struct NodeContact {
     /// `max(g, 0)` on a wall.
     pub open: f64,
     pub friction: f64,
+    /// For a `ContactKind::Surface` contact, its surface layers (an index into this
+    /// step's); `None` for a contact at the node.
+    pub surface: Option<usize>,
     /// Normal and tangential force on `a` (N/m), `t = (-n_y, n_x)`; the partner feels
     /// the opposite.
     pub force_n: f64,
@@ -106,7 +118,11 @@ impl NodeContact {
 
     /// Key for warm starts across steps: (node, grain, partner).
     pub fn key(&self) -> (usize, usize, Partner) {
-        (self.node, self.a, self.partner)
+        (
+            2 * self.node + usize::from(self.surface.is_some()),
+            self.a,
+            self.partner,
+        )
     }
 }
 
@@ -118,28 +134,60 @@ pub struct GrainView<'a> {
     pub window: &'a Grid,
 }
 
-/// Contact nodes of one grain: its contact DOFs and their condensed compliance.
+/// The contact slots of one grain and their condensed compliance. A slot is where a
+/// contact force acts and where its displacement is read: a load pattern `P` of (active
+/// node, weight) entries. A node contact's slot is its node with weight 1, shared by the
+/// contacts at that node; a surface contact's is the mean of its layer's stencils `S_ip`.
 #[derive(Clone, Debug, Default)]
 pub struct Slots {
-    /// Active node indices (of the grain's solver).
-    pub nodes: Vec<usize>,
-    /// `[K_eff]^{-1}` on the slot DOFs (2 per slot), column-major, `2s × 2s`.
+    /// Slot `k`'s entries are `pattern[start[k]..start[k + 1]]`.
+    pub pattern: Vec<(usize, f64)>,
+    pub start: Vec<usize>,
+    /// `P^T [K_eff]^{-1} P` on the slots (2 per slot), column-major, `2s × 2s`.
     pub compliance: Vec<f64>,
-    /// Predicted displacement increment at the slot DOFs for the current forces.
+    /// Predicted displacement of each slot (`P^T u`) for the current forces.
     pub disp: Vec<f64>,
 }
 
 impl Slots {
     pub fn len(&self) -> usize {
-        self.nodes.len()
+        self.start.len().saturating_sub(1)
     }
 
     pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
+        self.len() == 0
+    }
+
+    /// Slot `k`'s (active node, weight) entries.
+    pub fn entries(&self, k: usize) -> &[(usize, f64)] {
+        &self.pattern[self.start[k]..self.start[k + 1]]
+    }
+
+    /// `P^T x` for a nodal vector `x` (2 per active node), appended to `out`.
+    pub fn project(&self, x: &[f64], out: &mut Vec<f64>) {
+        for k in 0..self.len() {
+            let (mut px, mut py) = (0.0, 0.0);
+            for &(i, w) in self.entries(k) {
+                px += w * x[2 * i];
+                py += w * x[2 * i + 1];
+            }
+            out.push(px);
+            out.push(py);
+        }
+    }
+
+    /// Adds a slot with this pattern and returns its number.
+    fn add(&mut self, entries: impl Iterator<Item = (usize, f64)>) -> usize {
+        if self.start.is_empty() {
+            self.start.push(0);
+        }
+        self.pattern.extend(entries);
+        self.start.push(self.pattern.len());
+        self.len() - 1
     }
 
     fn dim(&self) -> usize {
-        2 * self.nodes.len()
+        2 * self.len()
     }
 
     /// The 2×2 block of the compliance between slots `s` and `r`.
@@ -168,6 +216,27 @@ impl Slots {
     }
 }
 
+/// Where grain-pair contacts act (walls always act at nodes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactKind {
+    /// At the contact node (the paper's Eqs. 11–12).
+    #[default]
+    Node,
+    /// At the node, plus a second contact on the two grains' surface layers there: the
+    /// points within `SURFACE_LAYER` of the gap-setting point on each side. Its force is
+    /// spread over the layer's points (equal shares, each by its `S_ip`) and its
+    /// displacement is read back through the same weights, so that force and gap are
+    /// work-conjugate. A node force moves the node, not the points that set the gap
+    /// (README, "Why held nodes do not hold the points").
+    Surface,
+}
+
+/// Depth of a surface layer, in cells: one cell deep. With a single point (the
+/// gap-setting one) the force is a point load that dents it and lets its neighbours
+/// through (0.58 of Johnson's force on the two-grain stack).
+pub const SURFACE_LAYER: f64 = 1.0;
+
 /// Smallest cosine between one grain's spatial mass gradient and minus the other's for a
 /// node to be a contact candidate (60°).
 pub const FACING: f64 = 0.5;
@@ -193,6 +262,8 @@ fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
 /// and numbers each grain's contact slots. `friction` is the inter-grain coefficient;
 /// walls carry their own. `alert` drops candidates with a larger gap. `nm` and `dt` set
 /// each contact's velocity law; the grain pairs' shifts are left to `start_collisions`.
+/// With `ContactKind::Surface` each grain-pair node contact is followed by its surface
+/// contact.
 #[allow(clippy::too_many_arguments)]
 pub fn detect(
     grid: &Grid,
@@ -202,6 +273,7 @@ pub fn detect(
     nm: Newmark,
     dt: f64,
     alert: f64,
+    kind: ContactKind,
     out: &mut Vec<NodeContact>,
     slots: &mut Vec<Slots>,
 ) {
@@ -221,6 +293,7 @@ pub fn detect(
         .map(|v| vec![false; v.solver.nodes().len()])
         .collect();
     let mut pairs = Vec::new();
+    let mut layers: Vec<[Vec<usize>; 2]> = Vec::new();
     let mut start = 0;
     while start < entries.len() {
         let mut end = start + 1;
@@ -278,33 +351,55 @@ pub fn detect(
         // whole support a tilted normal adds the clouds' lateral spread to the gap.
         let (t, xi) = (Vector2::new(-n.y, n.x), grid.node_position(node));
         let near = |x: &Vector2<f64>| (x - xi).dot(&t).abs() <= 0.5 * grid.h;
-        let lo = reached[ga][ia]
-            .iter()
-            .filter(|&&p| near(&grains[ga].points.x[p]))
-            .map(|&p| grains[ga].points.x[p].dot(&n) - reach_against(grains[ga].points, p, &n))
-            .fold(f64::INFINITY, f64::min);
-        let hi = reached[gb][ib]
-            .iter()
-            .filter(|&&q| near(&grains[gb].points.x[q]))
-            .map(|&q| grains[gb].points.x[q].dot(&n) + reach_against(grains[gb].points, q, &-n))
-            .fold(f64::NEG_INFINITY, f64::max);
+        // each point's face toward the other grain, along n
+        let face_a =
+            |p: usize| grains[ga].points.x[p].dot(&n) - reach_against(grains[ga].points, p, &n);
+        let face_b =
+            |q: usize| grains[gb].points.x[q].dot(&n) + reach_against(grains[gb].points, q, &-n);
+        let (side_a, side_b) = (
+            reached[ga][ia]
+                .iter()
+                .copied()
+                .filter(|&p| near(&grains[ga].points.x[p])),
+            reached[gb][ib]
+                .iter()
+                .copied()
+                .filter(|&q| near(&grains[gb].points.x[q])),
+        );
+        let lo = side_a.clone().map(face_a).fold(f64::INFINITY, f64::min);
+        let hi = side_b.clone().map(face_b).fold(f64::NEG_INFINITY, f64::max);
         let gap = lo - hi;
         if gap.is_finite() && gap < alert {
-            out.push(NodeContact {
+            let node_contact = NodeContact {
                 node,
                 a: ga,
-                slot_a: ia,
+                node_a: ia,
+                slot_a: 0,
                 partner: Partner::Grain(gb),
-                slot_b: ib,
+                node_b: ib,
+                slot_b: 0,
                 normal: n,
                 gap,
                 // set by `start_collisions`, from the start-of-step velocities it changes
                 shift: Vector2::zeros(),
                 open: gap.max(0.0) / (k * dt),
                 friction,
+                surface: None,
                 force_n: 0.0,
                 force_t: 0.0,
-            });
+            };
+            out.push(node_contact);
+            if kind == ContactKind::Surface {
+                let depth = SURFACE_LAYER * grid.h;
+                layers.push([
+                    side_a.filter(|&p| face_a(p) <= lo + depth).collect(),
+                    side_b.filter(|&q| face_b(q) >= hi - depth).collect(),
+                ]);
+                out.push(NodeContact {
+                    surface: Some(layers.len() - 1),
+                    ..node_contact
+                });
+            }
         }
     }
     // Walls, with the single grain's detection.
@@ -332,8 +427,10 @@ pub fn detect(
             out.push(NodeContact {
                 node: global_node(grid, v.window, v.solver.nodes()[c.node]),
                 a: g,
-                slot_a: c.node,
+                node_a: c.node,
+                slot_a: 0,
                 partner: Partner::Wall(c.wall),
+                node_b: 0,
                 slot_b: 0,
                 normal: w.normal,
                 gap: c.gap,
@@ -341,29 +438,52 @@ pub fn detect(
                 shift: -w.velocity * dt,
                 open: c.gap.max(0.0),
                 friction: w.friction,
+                surface: None,
                 force_n: 0.0,
                 force_t: 0.0,
             });
         }
     }
-    // Slots: active indices → slot numbers, per grain.
+    // Slots, per grain: one per contact node, and one per surface contact side.
     slots.clear();
     slots.resize(grains.len(), Slots::default());
-    let mut map: Vec<Vec<usize>> = grains
+    let mut by_node: Vec<Vec<usize>> = grains
         .iter()
         .map(|v| vec![usize::MAX; v.solver.nodes().len()])
         .collect();
-    let mut slot_of = |g: usize, i: usize, slots: &mut Vec<Slots>| {
-        if map[g][i] == usize::MAX {
-            map[g][i] = slots[g].nodes.len();
-            slots[g].nodes.push(i);
-        }
-        map[g][i]
-    };
+    let mut slot_of =
+        |g: usize, node: usize, layer: Option<&Vec<usize>>, slots: &mut Vec<Slots>| {
+            match layer {
+                Some(pts) => {
+                    // equal shares of the layer's points, each spread by its stencil
+                    let share = 1.0 / pts.len() as f64;
+                    let mut e: Vec<(usize, f64)> = pts
+                        .iter()
+                        .flat_map(|&p| grains[g].solver.point_stencil(p))
+                        .collect();
+                    e.sort_by_key(|x| x.0);
+                    let mut merged: Vec<(usize, f64)> = Vec::with_capacity(e.len());
+                    for (i, w) in e {
+                        match merged.last_mut() {
+                            Some(last) if last.0 == i => last.1 += w * share,
+                            _ => merged.push((i, w * share)),
+                        }
+                    }
+                    slots[g].add(merged.into_iter())
+                }
+                None => {
+                    if by_node[g][node] == usize::MAX {
+                        by_node[g][node] = slots[g].add(std::iter::once((node, 1.0)));
+                    }
+                    by_node[g][node]
+                }
+            }
+        };
     for c in out.iter_mut() {
-        c.slot_a = slot_of(c.a, c.slot_a, slots);
+        let layer = c.surface.map(|k| &layers[k]);
+        c.slot_a = slot_of(c.a, c.node_a, layer.map(|l| &l[0]), slots);
         if let Partner::Grain(b) = c.partner {
-            c.slot_b = slot_of(b, c.slot_b, slots);
+            c.slot_b = slot_of(b, c.node_b, layer.map(|l| &l[1]), slots);
         }
     }
 }
@@ -376,6 +496,8 @@ pub fn detect(
 /// nodes approach first takes a perfectly inelastic normal impulse on the start-of-step
 /// velocities, `j = -v_n m^α m^β/(m^α + m^β)` (momentum kept, energy only lost), given
 /// to the points in G2P; then each grain pair's shift, which depends on `v^n`, is set.
+/// Velocities and masses are the slots' (`pattern_velocity`, `pattern_mass`): a node's
+/// own for a node contact.
 pub fn start_collisions<G: AsRef<Solver> + AsMut<Solver>>(
     contacts: &mut [NodeContact],
     slots: &[Slots],
@@ -390,27 +512,56 @@ pub fn start_collisions<G: AsRef<Solver> + AsMut<Solver>>(
         if c.gap > 0.0 {
             continue;
         }
+        let (ea, eb) = (slots[c.a].entries(c.slot_a), slots[b].entries(c.slot_b));
         let (sa, sb) = (grains[c.a].as_ref(), grains[b].as_ref());
-        let (ia, ib) = (slots[c.a].nodes[c.slot_a], slots[b].nodes[c.slot_b]);
-        let vn = (sa.node_velocity()[ia] - sb.node_velocity()[ib]).dot(&c.normal);
+        let vn = (pattern_velocity(sa, ea) - pattern_velocity(sb, eb)).dot(&c.normal);
         if vn >= 0.0 {
             continue;
         }
-        let (ma, mb) = (sa.node_mass()[ia], sb.node_mass()[ib]);
+        let (ma, mb) = (pattern_mass(sa, ea), pattern_mass(sb, eb));
         let j = -vn * ma * mb / (ma + mb);
-        grains[c.a].as_mut().kick(ia, c.normal * (j / ma), dt);
-        grains[b].as_mut().kick(ib, -c.normal * (j / mb), dt);
+        for (g, e, sign) in [(c.a, ea, 1.0), (b, eb, -1.0)] {
+            let s = grains[g].as_mut();
+            for &(i, w) in e {
+                let m = s.node_mass()[i];
+                s.kick(i, c.normal * (sign * j * w / m), dt);
+            }
+        }
     }
     // `c / k` at a grain's active node
     let k = nm.velocity_rate(dt);
-    let free = |g: &G, i: usize| {
-        let s = g.as_ref();
-        nm.velocity_offset(s.node_velocity()[i], s.node_acceleration()[i], dt) / k
+    let free = |g: usize, slot: usize| -> Vector2<f64> {
+        let s = grains[g].as_ref();
+        slots[g]
+            .entries(slot)
+            .iter()
+            .map(|&(i, w)| {
+                nm.velocity_offset(s.node_velocity()[i], s.node_acceleration()[i], dt) / k * w
+            })
+            .sum()
     };
     for c in contacts.iter_mut() {
         if let Partner::Grain(b) = c.partner {
-            let (ia, ib) = (slots[c.a].nodes[c.slot_a], slots[b].nodes[c.slot_b]);
-            c.shift = free(&grains[c.a], ia) - free(&grains[b], ib);
+            c.shift = free(c.a, c.slot_a) - free(b, c.slot_b);
+        }
+    }
+}
+
+/// Start-of-step velocity of a slot's pattern, `Σ w v_i`.
+fn pattern_velocity(s: &Solver, e: &[(usize, f64)]) -> Vector2<f64> {
+    e.iter().map(|&(i, w)| s.node_velocity()[i] * w).sum()
+}
+
+/// The mass a force spread by the pattern's weights moves, `1/Σ (w²/m_i)` (a node's own
+/// mass for the node contact).
+fn pattern_mass(s: &Solver, e: &[(usize, f64)]) -> f64 {
+    match e {
+        [(i, w)] if *w == 1.0 => s.node_mass()[*i],
+        _ => {
+            1.0 / e
+                .iter()
+                .map(|&(i, w)| w * w / s.node_mass()[i])
+                .sum::<f64>()
         }
     }
 }
@@ -525,15 +676,17 @@ pub fn nlgs(
 
 /// Adds each contact's force into its grains' nodal force vectors `fc[g]` (2 per active node).
 pub fn scatter(contacts: &[NodeContact], slots: &[Slots], fc: &mut [Vec<f64>]) {
+    let mut add = |g: usize, slot: usize, f: Vector2<f64>| {
+        for &(i, w) in slots[g].entries(slot) {
+            fc[g][2 * i] += f.x * w;
+            fc[g][2 * i + 1] += f.y * w;
+        }
+    };
     for c in contacts {
         let f = c.force();
-        let i = slots[c.a].nodes[c.slot_a];
-        fc[c.a][2 * i] += f.x;
-        fc[c.a][2 * i + 1] += f.y;
+        add(c.a, c.slot_a, f);
         if let Partner::Grain(b) = c.partner {
-            let j = slots[b].nodes[c.slot_b];
-            fc[b][2 * j] -= f.x;
-            fc[b][2 * j + 1] -= f.y;
+            add(b, c.slot_b, -f);
         }
     }
 }

@@ -403,6 +403,15 @@ impl Solver {
         self.u[2 * i + 1] += dt * dv.y;
     }
 
+    /// Point `p`'s stencil: (active node, weight `S_ip > 0`).
+    pub fn point_stencil(&self, p: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+        let (a, b) = (self.conn.grp_off[g], self.conn.grp_off[g + 1]);
+        (0..b - a)
+            .map(move |k| (self.conn.grp_nodes[a + k], self.conn.pt_w[off + k]))
+            .filter(|&(_, w)| w > 0.0)
+    }
+
     /// `Σ_p m_p ∇S_ip` at the start of the step, per active node.
     pub fn mass_gradient(&self) -> &[Vector2<f64>] {
         &self.mgrad

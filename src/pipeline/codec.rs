@@ -9,7 +9,7 @@ use serde::de::DeserializeOwned;
 /// every node's hash, so old checkpoints are recomputed, never misread. Not needed when a
 /// `StageState` variant is appended (older payloads decode unchanged): version 4 holds
 /// `MpmPacking` and `Analysed` added last; version 5 adds the rolling impulse to contacts.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

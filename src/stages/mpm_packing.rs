@@ -20,7 +20,7 @@ use crate::config::{Method, Model, Mpm, Pipeline, Shape};
 use crate::geom::V2;
 use crate::io::vtk::{Data, Frame};
 use crate::mpm::material::{Material, MaterialKind};
-use crate::mpm::node_contact::{NlgsParams, Partner};
+use crate::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use crate::mpm::packing::{Packing, PackingParams, TOP};
 use crate::mpm::points::Points;
 use crate::mpm::shape::ShapeKind;
@@ -46,6 +46,7 @@ pub struct MpmPackingGrains {
     pub cell: f64,
     pub shape: ShapeKind,
     pub bbar: bool,
+    pub contact: ContactKind,
     /// Points seeded at the deposit's positions (the compact stage reports its own count).
     pub points: usize,
 }
@@ -82,6 +83,7 @@ pub fn discretise(m: &Mpm, prep: &Prepared) -> Result<(MpmPackingGrains, String)
             Shape::Gimp => ShapeKind::Gimp,
         },
         bbar: m.bbar,
+        contact: m.contact,
         points: 0,
     };
     let top = b
@@ -117,6 +119,7 @@ fn params(
         solver,
         cell: g.cell,
         friction,
+        contact: g.contact,
         wall_friction,
         gravity,
         wall_velocity,
