@@ -133,16 +133,20 @@ fn a_small_mpm_packing_keeps_its_grains_apart() {
 /// `discretise.mpm.contact: surface` adds, at each grain contact node, a contact on the two
 /// grains' surface layers, whose force moves the points that set the gap. Without friction
 /// the node contact lets these 12 grains overlap by 1.43 h_g (a fixed length: more cells
-/// on a finer grid, README); the surface contact keeps them to about half a cell (measured
-/// 0.44). The grains carry more stress then, so their area may shrink more, but only
-/// elastically: the grains' mean pressure is at most σ/Φ, so |ΔΣv_p/Σv_p| <= σ/(Φ (λ + μ)).
+/// on a finer grid, README); the surface contact at least halves that (measured 0.44, and
+/// 0.53 for a numerically equivalent variant: the runs are chaotic). The grains carry more
+/// stress then, so their area may shrink more, but only elastically: the grains' mean
+/// pressure is at most σ/Φ, so |ΔΣv_p/Σv_p| <= σ/(Φ (λ + μ)).
 #[test]
-fn surface_contact_keeps_a_small_mpm_packing_within_about_half_a_cell() {
+fn surface_contact_at_least_halves_the_overlap_of_a_small_mpm_packing() {
+    let (node, dir) = small_packing("mpm-packing-node", 0.0);
+    let _ = std::fs::remove_dir_all(&dir);
     let (c, dir) = small_packing_with("mpm-packing-surface", 0.0, "discretise.mpm.contact=surface");
     assert!(
-        c.figures.overlap_max < 0.6,
-        "overlap {} cells",
-        c.figures.overlap_max
+        c.figures.overlap_max < 0.5 * node.figures.overlap_max,
+        "overlap {} cells with surface contact, {} with node contact",
+        c.figures.overlap_max,
+        node.figures.overlap_max
     );
     assert_eq!(c.figures.area_change, 0.0);
     assert_eq!(c.figures.unconverged_steps, 0);
