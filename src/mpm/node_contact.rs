@@ -134,22 +134,15 @@ pub struct GrainView<'a> {
     pub window: &'a Grid,
 }
 
-/// The contact slots of one grain and their condensed compliance. A slot is where a
-/// contact force acts and where its displacement is read: a load pattern `P` of (active
-/// node, weight) entries. A node contact's slot is its node with weight 1, shared by the
-/// contacts at that node; a surface contact's is the mean of its layer's stencils `S_ip`.
+/// Load patterns `P`, one per slot: (active node, weight) entries.
 #[derive(Clone, Debug, Default)]
-pub struct Slots {
-    /// Slot `k`'s entries are `pattern[start[k]..start[k + 1]]`.
-    pub pattern: Vec<(usize, f64)>,
-    pub start: Vec<usize>,
-    /// `P^T [K_eff]^{-1} P` on the slots (2 per slot), column-major, `2s × 2s`.
-    pub compliance: Vec<f64>,
-    /// Predicted displacement of each slot (`P^T u`) for the current forces.
-    pub disp: Vec<f64>,
+pub struct Patterns {
+    /// Slot `k`'s entries are `entries[start[k]..start[k + 1]]`.
+    entries: Vec<(usize, f64)>,
+    start: Vec<usize>,
 }
 
-impl Slots {
+impl Patterns {
     pub fn len(&self) -> usize {
         self.start.len().saturating_sub(1)
     }
@@ -160,7 +153,7 @@ impl Slots {
 
     /// Slot `k`'s (active node, weight) entries.
     pub fn entries(&self, k: usize) -> &[(usize, f64)] {
-        &self.pattern[self.start[k]..self.start[k + 1]]
+        &self.entries[self.start[k]..self.start[k + 1]]
     }
 
     /// `P^T x` for a nodal vector `x` (2 per active node), appended to `out`.
@@ -181,9 +174,37 @@ impl Slots {
         if self.start.is_empty() {
             self.start.push(0);
         }
-        self.pattern.extend(entries);
-        self.start.push(self.pattern.len());
+        self.entries.extend(entries);
+        self.start.push(self.entries.len());
         self.len() - 1
+    }
+}
+
+/// The contact slots of one grain and their condensed compliance. A slot is where a
+/// contact force acts and where its displacement is read: a load pattern `P` of (active
+/// node, weight) entries. A node contact's slot is its node with weight 1, shared by the
+/// contacts at that node; a surface contact's is the mean of its layer's stencils `S_ip`.
+#[derive(Clone, Debug, Default)]
+pub struct Slots {
+    pub patterns: Patterns,
+    /// `P^T [K_eff]^{-1} P` on the slots (2 per slot), column-major, `2s × 2s`.
+    pub compliance: Vec<f64>,
+    /// Predicted displacement of each slot (`P^T u`) for the current forces.
+    pub disp: Vec<f64>,
+}
+
+impl Slots {
+    pub fn len(&self) -> usize {
+        self.patterns.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.patterns.is_empty()
+    }
+
+    /// Slot `k`'s (active node, weight) entries.
+    pub fn entries(&self, k: usize) -> &[(usize, f64)] {
+        self.patterns.entries(k)
     }
 
     fn dim(&self) -> usize {
@@ -460,20 +481,22 @@ pub fn detect(
                     let mut e: Vec<(usize, f64)> = pts
                         .iter()
                         .flat_map(|&p| grains[g].solver.point_stencil(p))
+                        .map(|(i, w)| (i, w * share))
                         .collect();
                     e.sort_by_key(|x| x.0);
-                    let mut merged: Vec<(usize, f64)> = Vec::with_capacity(e.len());
-                    for (i, w) in e {
-                        match merged.last_mut() {
-                            Some(last) if last.0 == i => last.1 += w * share,
-                            _ => merged.push((i, w * share)),
+                    // one entry per node, its shares summed in order
+                    e.dedup_by(|next, last| {
+                        let same = next.0 == last.0;
+                        if same {
+                            last.1 += next.1;
                         }
-                    }
-                    slots[g].add(merged.into_iter())
+                        same
+                    });
+                    slots[g].patterns.add(e.into_iter())
                 }
                 None => {
                     if by_node[g][node] == usize::MAX {
-                        by_node[g][node] = slots[g].add(std::iter::once((node, 1.0)));
+                        by_node[g][node] = slots[g].patterns.add(std::iter::once((node, 1.0)));
                     }
                     by_node[g][node]
                 }

@@ -707,10 +707,8 @@ fn grain_free(
     for (r, x) in rhs.iter_mut().zip(u) {
         *r += x;
     }
-    let mut disp = std::mem::take(&mut s.disp);
-    disp.clear();
-    s.project(&rhs, &mut disp);
-    s.disp = disp;
+    s.disp.clear();
+    s.patterns.project(&rhs, &mut s.disp);
     w.rhs = rhs;
     if new == 1 && !s.is_empty() {
         // unit loads along each slot's pattern, then their displacements projected back
@@ -724,11 +722,10 @@ fn grain_free(
         }
         w.solver.solve(&mut cols, m, step)?;
         s.compliance.clear();
-        let mut compliance = std::mem::take(&mut s.compliance);
         for col in 0..m {
-            s.project(&cols[col * n..(col + 1) * n], &mut compliance);
+            s.patterns
+                .project(&cols[col * n..(col + 1) * n], &mut s.compliance);
         }
-        s.compliance = compliance;
     }
     Ok(new)
 }

@@ -685,16 +685,9 @@ impl Solver {
     /// Grid to points at convergence (METHODS §3.3 step 8, FLIP-type Newmark update).
     fn g2p(&mut self, nm: Newmark, points: &mut Points, dt: f64) {
         for p in 0..points.len() {
-            let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
-            let (a, b) = (self.conn.grp_off[g], self.conn.grp_off[g + 1]);
             let (mut du, mut acc, mut kick) =
                 (Vector2::zeros(), Vector2::zeros(), Vector2::zeros());
-            for k in 0..b - a {
-                let w = self.conn.pt_w[off + k];
-                if w == 0.0 {
-                    continue;
-                }
-                let i = self.conn.grp_nodes[a + k];
+            for (i, w) in self.point_stencil(p) {
                 let u = vec2(&self.u, i);
                 du += u * w;
                 acc += nm.accel(u, self.vn[i], self.an[i], dt) * w;
