@@ -193,18 +193,19 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64) -> Outcome {
         }
         let r = scene.step().expect("softgrain step");
         sweeps += r.nlgs.iterations as u64;
-        out.contact_updates += r.nlgs.iterations as u64 * r.contacts as u64;
+        out.contact_updates += r.updates;
         floor.push(scene.wall_force[0].y);
         if floor.len() > 20 {
             floor.remove(0);
         }
         if trace || scene.steps.is_multiple_of(PROGRESS) {
             eprintln!(
-                "  softgrain step {} t = {:.4} s, {} contacts, {} sweeps, {:.0} s wall",
+                "  softgrain step {} t = {:.4} s, {} contacts, {} sweeps, {} resumed, {:.0} s wall",
                 scene.steps,
                 scene.time,
                 r.contacts,
                 r.nlgs.iterations,
+                r.resumed,
                 t0.elapsed().as_secs_f64()
             );
         }

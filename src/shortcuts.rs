@@ -5,7 +5,7 @@
 //! `SOFTGRAIN_WITHOUT=warm_start,verlet` in the environment turns those shortcuts off for
 //! the whole process; it is read once. A run without a shortcut computes the same thing the
 //! long way: bit for bit for `frictionless` and `verlet`, within the solver tolerance for
-//! `warm_start` (the iterations start elsewhere) and `active_nodes` (a larger system). It is a measuring switch, not a setting:
+//! `warm_start` and `local_alert` (the iterations start elsewhere or sweep fewer contacts) and `active_nodes` (a larger system). It is a measuring switch, not a setting:
 //! checkpoints do not record it.
 
 use std::sync::OnceLock;
@@ -28,6 +28,11 @@ pub struct Shortcuts {
     /// MPM: only the nodes a grain's points reach are numbered, assembled and solved;
     /// without it every node of the grain's grid (single grain) or window (packing) is.
     pub active_nodes: bool,
+    /// CD: a contact enters the solve only when its own two bodies can close it within the
+    /// step (or it carries an impulse); the rest are checked after the solve and added where
+    /// the solution would close them. Without it every pair within the global alert distance
+    /// (set by the fastest disk) is solved.
+    pub local_alert: bool,
 }
 
 impl Default for Shortcuts {
@@ -37,12 +42,19 @@ impl Default for Shortcuts {
             warm_start: true,
             verlet: true,
             active_nodes: true,
+            local_alert: true,
         }
     }
 }
 
 /// The names `SOFTGRAIN_WITHOUT` accepts.
-pub const NAMES: [&str; 4] = ["frictionless", "warm_start", "verlet", "active_nodes"];
+pub const NAMES: [&str; 5] = [
+    "frictionless",
+    "warm_start",
+    "verlet",
+    "active_nodes",
+    "local_alert",
+];
 
 impl Shortcuts {
     /// Parses a comma-separated list of shortcuts to turn off ("" turns none off).
@@ -54,6 +66,7 @@ impl Shortcuts {
                 "warm_start" => s.warm_start = false,
                 "verlet" => s.verlet = false,
                 "active_nodes" => s.active_nodes = false,
+                "local_alert" => s.local_alert = false,
                 other => {
                     return Err(format!(
                         "{ENV}={list}: unknown shortcut `{other}` (allowed: {})",

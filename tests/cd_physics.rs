@@ -172,3 +172,47 @@ fn a_scene_saved_and_loaded_mid_run_continues_bit_for_bit() {
     );
     assert_eq!(codec::encode(&a).unwrap(), codec::encode(&b).unwrap());
 }
+
+#[test]
+fn an_impact_through_a_spaced_column_gives_the_exact_step_solution() {
+    // A striker at v hits the first of N resting disks spaced by δ along x, no gravity, no
+    // friction. The resting pairs neither move nor lie within the alert distance, so the
+    // local alert leaves them out of the solve at first; the impact closes them within the
+    // step, and the solve must take them in. The step's exact solution (inelastic impacts,
+    // gap anticipation u_n ≥ -δ/h): every contact active, v_0 = v_1 = a and
+    // v_k = a - (k - 1) δ/h, with momentum kept: a = (v + (δ/h) N (N - 1)/2)/(N + 1).
+    let (r, h, delta, v, n) = (1e-3, 1e-3, 1e-4, 2.0, 4usize);
+    let mut bodies = Bodies::default();
+    bodies.push(V2::zeros(), r, 1000.0, 0);
+    for k in 1..=n {
+        let x = 2.0 * r + (k - 1) as f64 * (2.0 * r + delta);
+        bodies.push(V2::new(x, 0.0), r, 1000.0, k as u32);
+    }
+    bodies.vel[0] = V2::new(v, 0.0);
+    let laws = LawTable::new(Coulomb { mu: 0.0 }, Coulomb { mu: 0.0 }, vec![]);
+    let mut p = params(h);
+    p.gravity = V2::zeros();
+    p.alert = 0.1 * delta;
+    p.nlgs.tol = 1e-9;
+    let mut scene = Scene::new(bodies, vec![], laws, p, 1);
+    let report = scene.step().unwrap();
+    if softgrain::shortcuts::get().local_alert {
+        assert!(report.resumed >= 1, "the column never entered the solve");
+    }
+    // striker-1 and the column pairs at least (the striker's reach also takes in disk 2)
+    assert!(report.contacts >= n, "{} contacts solved", report.contacts);
+    let s = delta / h;
+    let a = (v + s * (n * (n - 1)) as f64 / 2.0) / (n + 1) as f64;
+    for k in 0..=n {
+        let want = a - (k.max(1) - 1) as f64 * s;
+        let got = scene.bodies.vel[k];
+        assert!(
+            (got.x - want).abs() < 1e-6 * v && got.y.abs() < 1e-12,
+            "disk {k}: v = {got}, exact {want}"
+        );
+    }
+    // the N neighbour gaps closed exactly, none overlapping
+    let gaps = scene.current_gaps();
+    assert!(gaps.iter().all(|&g| g > -1e-6 * r), "gaps {gaps:?}");
+    assert_eq!(gaps.iter().filter(|g| g.abs() < 1e-6 * r).count(), n);
+}

@@ -434,8 +434,9 @@ fn a_bpm_grain_hit_at_up_to_twenty_metres_per_second_gains_no_energy() {
 /// 1 t0 and negative from 2 t0 on. What grows is the error: deepest overlap 2.5e-3 d_min
 /// at 0.5 t0, 1.2e-2 at 1, 5.0e-2 at 2, 0.17 at 5, 0.29 at 10 t0 (0.1 t0: 1.3e-4).
 /// **The limit**: this relaxed grain completes the compression up to 10 t0 with no particle
-/// lost, and at 20 t0 the penetration guard (overlap over half a radius) stops it at step
-/// 3, at 50 t0 at step 0. (`tests/cd_stability.rs` stops at 5 t0 on the unrelaxed grain
+/// lost, and at 20 t0 the penetration guard (overlap over half a radius) stops it within
+/// three steps (step 2; step 3 with the global alert, `SOFTGRAIN_WITHOUT=local_alert`: the
+/// diverging run takes another path), at 50 t0 at step 0. (`tests/cd_stability.rs` stops at 5 t0 on the unrelaxed grain
 /// straight from the builder, whose attraction starts far from equilibrium.)
 #[test]
 fn a_bpm_grain_runs_to_ten_t0_and_stops_cleanly_beyond() {
@@ -466,7 +467,7 @@ fn a_bpm_grain_runs_to_ten_t0_and_stops_cleanly_beyond() {
     }
     for (k, at) in [(20.0, 3), (50.0, 0)] {
         match bpm_compress(&g, 0.2, k, 0.1).error {
-            Some(CdError::Penetration { step, .. }) => assert_eq!(step, at, "{k} t0"),
+            Some(CdError::Penetration { step, .. }) => assert!(step <= at, "{k} t0: step {step}"),
             other => panic!("{k} t0: expected the penetration guard, got {other:?}"),
         }
     }

@@ -67,6 +67,10 @@ pub struct StepReport {
     pub nlgs: NlgsReport,
     /// Contacts that entered the solve.
     pub contacts: usize,
+    /// Local solves done: Σ sweeps × contacts in the solve, over every resumed solve.
+    pub updates: u64,
+    /// Times the solve was resumed with contacts the local alert had left out.
+    pub resumed: u32,
 }
 
 /// Disks, walls and laws, with the state carried from step to step (time, the previous
@@ -187,26 +191,60 @@ impl<L: InteractionLaw> Scene<L> {
             }
         }
 
-        // 4. Impulses: only contacts within the alert distance enter the solve.
+        // 4. Impulses. Only candidates within the alert distance enter the solve; with the
+        // local alert, only those whose own two bodies can close them within the step, or
+        // that carry a warm-start impulse. The others are checked after the solve and added,
+        // and the solve resumed, wherever the solution would close them.
         nlgs::apply_all(&contacts, &mut self.bodies);
+        let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
+        let mut in_solve: Vec<bool> = contacts
+            .iter()
+            .map(|c| {
+                c.gap <= alert
+                    && (!shortcuts.local_alert
+                        || c.p_n != 0.0
+                        || c.gap <= self.local_alert(c, &wall_vel))
+            })
+            .collect();
         self.order.clear();
         self.order
-            .extend((0..contacts.len() as u32).filter(|&k| contacts[k as usize].gap <= alert));
-        let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
+            .extend((0..contacts.len() as u32).filter(|&k| in_solve[k as usize]));
         let data = nlgs::StepData {
             laws: &self.laws,
             wall_vel: &wall_vel,
             gap_rate: 1.0 / (theta * h),
             skip_frictionless: shortcuts.frictionless,
         };
-        let report = nlgs::solve(
-            &mut contacts,
-            &mut self.bodies,
-            &data,
-            &self.params.nlgs,
-            &mut self.order,
-            &mut self.rng,
-        );
+        let mut report = NlgsReport::default();
+        let (mut updates, mut resumed) = (0, 0);
+        loop {
+            let r = nlgs::solve(
+                &mut contacts,
+                &mut self.bodies,
+                &data,
+                &self.params.nlgs,
+                &mut self.order,
+                &mut self.rng,
+            );
+            updates += u64::from(r.iterations) * self.order.len() as u64;
+            report.iterations += r.iterations;
+            report.converged = r.converged;
+            report.residual = r.residual;
+            if !shortcuts.local_alert {
+                break;
+            }
+            let before = self.order.len();
+            for (k, c) in contacts.iter().enumerate() {
+                if !in_solve[k] && c.gap <= alert && self.closes(c, &wall_vel, data.gap_rate) {
+                    in_solve[k] = true;
+                    self.order.push(k as u32);
+                }
+            }
+            if self.order.len() == before {
+                break;
+            }
+            resumed += 1;
+        }
 
         // 5. q⁺ = q⁻ + h [(1-θ) V⁻ + θ V⁺].
         let b = &mut self.bodies;
@@ -283,7 +321,32 @@ impl<L: InteractionLaw> Scene<L> {
         Ok(StepReport {
             nlgs: report,
             contacts: n_solved,
+            updates,
+            resumed,
         })
+    }
+
+    /// Gap that contact `c`'s own bodies can close within the step: the alert distance plus
+    /// twice h times the sum of their (free) speeds, the same margin as the global alert.
+    fn local_alert(&self, c: &Contact, wall_vel: &[V2]) -> f64 {
+        let b = &self.bodies;
+        let other = match c.j {
+            Partner::Body(j) => b.vel[j as usize].norm(),
+            Partner::Wall(w) => wall_vel[w as usize].norm(),
+        };
+        self.params.alert + 2.0 * self.params.dt * (b.vel[c.i as usize].norm() + other)
+    }
+
+    /// Whether contact `c`, left out of the solve, would close (or overlap) by the end of the
+    /// step at the bodies' current velocities: u_n + max(g, 0)/(θh) < 0, the condition the
+    /// solve enforces on its own contacts.
+    fn closes(&self, c: &Contact, wall_vel: &[V2], gap_rate: f64) -> bool {
+        let b = &self.bodies;
+        let vj = match c.j {
+            Partner::Body(j) => b.vel[j as usize],
+            Partner::Wall(w) => wall_vel[w as usize],
+        };
+        (b.vel[c.i as usize] - vj).dot(&c.n) + c.gap.max(0.0) * gap_rate < 0.0
     }
 
     fn a0(&self, c: &Contact) -> f64 {

@@ -193,7 +193,7 @@ pub fn run_bpm(
         f.steps += 1;
         f.nlgs_iterations += r.nlgs.iterations as u64;
         f.unconverged_steps += u64::from(!r.nlgs.converged);
-        f.contact_updates += r.nlgs.iterations as u64 * r.contacts as u64;
+        f.contact_updates += r.updates;
         if st.scene.steps % every == 0 {
             record(p, ctx, &mut st, cutoff).map_err(io)?;
             let strain = st.rows.last().map_or(0.0, |r| r.strain);

@@ -107,7 +107,7 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
         f.nlgs_iterations += r.nlgs.iterations as u64;
         f.nlgs_iterations_max = f.nlgs_iterations_max.max(r.nlgs.iterations);
         f.unconverged_steps += u64::from(!r.nlgs.converged);
-        f.contact_updates += r.nlgs.iterations as u64 * r.contacts as u64;
+        f.contact_updates += r.updates;
         if prep.layout == Layout::Packing {
             let quiet = st.scene.time > st.settle_after
                 && rest_ratio(&st.scene, prep.gravity) < prep.rest_tolerance;
