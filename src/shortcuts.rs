@@ -4,9 +4,10 @@
 //!
 //! `SOFTGRAIN_WITHOUT=warm_start,verlet` in the environment turns those shortcuts off for
 //! the whole process; it is read once. A run without a shortcut computes the same thing the
-//! long way: bit for bit for `frictionless` and `verlet`, within the solver tolerance for
-//! `warm_start` and `local_alert` (the iterations start elsewhere or sweep fewer contacts) and `active_nodes` (a larger system). It is a measuring switch, not a setting:
-//! checkpoints do not record it.
+//! long way: bit for bit for `frictionless` and `verlet`; within the solver tolerance for
+//! `warm_start` (the iterations start elsewhere), `local_alert` (they sweep another set of
+//! open contacts) and `active_nodes` (a larger system). It is a measuring switch, not a
+//! setting: checkpoints do not record it.
 
 use std::sync::OnceLock;
 

@@ -327,7 +327,8 @@ impl<L: InteractionLaw> Scene<L> {
     }
 
     /// Gap that contact `c`'s own bodies can close within the step: the alert distance plus
-    /// twice h times the sum of their (free) speeds, the same margin as the global alert.
+    /// twice h times the sum of their speeds as the solve starts (free velocity and warm
+    /// start), the same margin as the global alert.
     fn local_alert(&self, c: &Contact, wall_vel: &[V2]) -> f64 {
         let b = &self.bodies;
         let other = match c.j {
