@@ -216,3 +216,62 @@ fn an_impact_through_a_spaced_column_gives_the_exact_step_solution() {
     assert!(gaps.iter().all(|&g| g > -1e-6 * r), "gaps {gaps:?}");
     assert_eq!(gaps.iter().filter(|g| g.abs() < 1e-6 * r).count(), n);
 }
+
+#[test]
+fn a_wide_stack_solved_by_the_coloured_sweep_carries_its_weight_with_any_thread_count() {
+    // 1000 × 20 touching disks on a floor, released from rest: about 39,000 contacts, enough
+    // for the coloured parallel sweep. The step's exact solution is rest with the whole weight
+    // on the floor; one and two threads must give the same bits.
+    use softgrain::cd::COLOURED_MIN;
+    let (r, nx, ny) = (1e-3, 1000, 20);
+    let mut bodies = Bodies::default();
+    for j in 0..ny {
+        for i in 0..nx {
+            let p = V2::new((2 * i + 1) as f64 * r, (2 * j + 1) as f64 * r);
+            bodies.push(p, r, 1000.0, (j * nx + i) as u32);
+        }
+    }
+    let floor = Wall::new(V2::new(0.0, 0.0), V2::new(2.0 * nx as f64 * r, 0.0));
+    let weight = bodies.total_mass() * G;
+    let run = |threads: usize| {
+        let laws = LawTable::new(
+            Coulomb { mu: 0.3 },
+            Coulomb { mu: 0.3 },
+            vec![Coulomb { mu: 0.0 }],
+        );
+        let mut scene = Scene::new(bodies.clone(), vec![floor.clone()], laws, params(1e-4), 3);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let report = pool.install(|| scene.step().unwrap());
+        (scene, report)
+    };
+    let (a, report) = run(2);
+    assert!(
+        report.contacts >= COLOURED_MIN,
+        "{} contacts",
+        report.contacts
+    );
+    assert!(report.nlgs.converged);
+    // Momentum: the floor's impulse and what the disks keep add up to the weight's impulse
+    // exactly (a race between the threads would break this bookkeeping) ...
+    let floor_force = a.wall_force[0].y;
+    let kept: f64 = (0..a.bodies.len())
+        .map(|i| a.bodies.mass(i) * a.bodies.vel[i].y)
+        .sum::<f64>()
+        / 1e-4;
+    assert!(
+        ((floor_force - kept) / weight - 1.0).abs() < 1e-9,
+        "floor {floor_force} N/m, kept {kept} N/m, weight {weight} N/m"
+    );
+    // ... and the disks keep little: the NLGS tolerance (1e-6 per check on the relative change
+    // norms) leaves 1.0e-4 of the weight in the 20 layers
+    assert!(
+        (floor_force / weight - 1.0).abs() < 1e-3,
+        "floor carries {floor_force} N/m of {weight}"
+    );
+    let (b, _) = run(1);
+    assert!(a.bodies.vel == b.bodies.vel && a.bodies.omega == b.bodies.omega);
+    assert!(a.contacts == b.contacts);
+}

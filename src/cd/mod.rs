@@ -24,5 +24,5 @@ mod scene;
 pub use bodies::Bodies;
 pub use contact::{Contact, Partner};
 pub use law::{Coulomb, InteractionLaw, LawTable};
-pub use nlgs::{NlgsParams, NlgsReport};
+pub use nlgs::{COLOURED_MIN, NlgsParams, NlgsReport};
 pub use scene::{CdError, CdParams, Scene, StepReport};

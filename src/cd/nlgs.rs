@@ -239,7 +239,11 @@ impl Shared {
 /// of the contact conflict graph (contacts sharing a disk get different colours) and the
 /// rows of one colour are solved in parallel (METHODS.md §1.11). The order depends only on
 /// the data and the seeded shuffle, never on the thread count, so results are deterministic.
-const COLOURED_MIN: usize = 8192;
+/// On two cores it pays only for large solves: half the sequential sweep's updates per second
+/// at 11,000 contacts (a 3000-disk deposit), 0.67 at about 20,000 (a `paper-coarse.yaml`
+/// compaction, which also needs more sweeps in colour order), 1.3 times at 60,000-80,000 (a
+/// 30,000-disk deposit); `bench/README-performance.md`.
+pub const COLOURED_MIN: usize = 32768;
 /// Rows per parallel task, and per partial sum of the convergence norms (a fixed chunking
 /// keeps the sums' rounding independent of the thread count).
 const CHUNK: usize = 1024;
