@@ -94,6 +94,9 @@ pub struct Scene<L> {
     neighbours: Neighbours,
     #[serde(skip)]
     order: Vec<u32>,
+    /// Per contact of the step: whether it is in `order` (kept to spare an allocation).
+    #[serde(skip)]
+    in_solve: Vec<bool>,
     #[serde(skip)]
     pub(super) energy: EnergyGuard,
 }
@@ -119,6 +122,7 @@ impl<L: InteractionLaw> Scene<L> {
             rng: Rng::stream(seed, "cd-nlgs-order"),
             neighbours: Neighbours::default(),
             order: Vec::new(),
+            in_solve: Vec::new(),
             energy: EnergyGuard::default(),
         }
     }
@@ -197,15 +201,14 @@ impl<L: InteractionLaw> Scene<L> {
         // and the solve resumed, wherever the solution would close them.
         nlgs::apply_all(&contacts, &mut self.bodies);
         let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
-        let mut in_solve: Vec<bool> = contacts
-            .iter()
-            .map(|c| {
-                c.gap <= alert
-                    && (!shortcuts.local_alert
-                        || c.p_n != 0.0
-                        || c.gap <= self.local_alert(c, &wall_vel))
-            })
-            .collect();
+        let mut in_solve = std::mem::take(&mut self.in_solve);
+        in_solve.clear();
+        in_solve.extend(contacts.iter().map(|c| {
+            c.gap <= alert
+                && (!shortcuts.local_alert
+                    || c.p_n != 0.0
+                    || c.gap <= self.local_alert(c, &wall_vel))
+        }));
         self.order.clear();
         self.order
             .extend((0..contacts.len() as u32).filter(|&k| in_solve[k as usize]));
@@ -245,6 +248,7 @@ impl<L: InteractionLaw> Scene<L> {
             }
             resumed += 1;
         }
+        self.in_solve = in_solve;
 
         // 5. q⁺ = q⁻ + h [(1-θ) V⁻ + θ V⁺].
         let b = &mut self.bodies;
