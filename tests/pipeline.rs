@@ -151,6 +151,17 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(s, m);
     let s = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.5]"]);
     assert_eq!(s, base);
+    // a case is named by its own friction and particle range, not by the lists: adding a
+    // friction value or dropping one leaves the other cases' names (and work) alone
+    let more = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.25,0.5]"]);
+    let fewer = hashes(&dir, GRAPH, &["compact.friction=0.5"]);
+    assert_eq!((more.len(), fewer.len()), (base.len() + 3, base.len() - 3));
+    for (_, case, hash) in &base {
+        let same =
+            |nodes: &[(Stage, String, String)]| nodes.iter().any(|n| &n.1 == case && &n.2 == hash);
+        assert!(same(&more), "{case} renamed by adding a friction value");
+        assert_eq!(same(&fewer), !case.ends_with("-mu0"), "{case}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

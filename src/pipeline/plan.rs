@@ -101,6 +101,15 @@ fn node<P: Serialize>(
     }
 }
 
+/// A section's canonical parameters with one fanned-out list key (`friction`,
+/// `particle_diameter`) set to the case's own value, so that adding a value to the list
+/// names a new case and leaves the finished ones cached.
+fn one_of<S: Serialize, V: Serialize>(section: &S, key: &str, value: V) -> serde_json::Value {
+    let mut v = serde_json::to_value(section).expect("parameters serialise");
+    v[key] = serde_json::to_value(value).expect("parameters serialise");
+    v
+}
+
 /// Readable, stable number formatting for case names: 0.5 -> "0.5", 1.6e-4 -> "0.16" (mm).
 fn mm(x: f64) -> String {
     format!("{}", (x * 1e3 * 1e6).round() / 1e6)
@@ -151,8 +160,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                             } else {
                                 "bpm".into()
                             };
-                            let params =
-                                json!({"seed": p.seed, "bpm": bpm, "particle_diameter": r});
+                            let params = json!({"seed": p.seed, "bpm": one_of(&bpm, "particle_diameter", r)});
                             (case, params)
                         })
                         .collect()
@@ -177,8 +185,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
         for (up, dcase) in &discretised {
             for mu in c.friction.to_vec() {
                 let case = format!("{dcase}-mu{mu}");
-                let params =
-                    json!({"compact": c, "friction": mu, "solver": p.solver, "output": p.output});
+                let params = json!({"compact": one_of(c, "friction", mu), "solver": p.solver, "output": p.output});
                 nodes.push(node(Stage::Compact, case, &params, vec![*up], nodes));
                 nodes.last_mut().expect("pushed").method = nodes[*up].method;
                 compacted.push(nodes.len() - 1);
