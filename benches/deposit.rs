@@ -12,7 +12,8 @@
 //! `--child`) so that its peak resident memory (VmHWM) is its own.
 //!
 //! Usage: `cargo bench --bench deposit -- [--sizes 300,30000] [--runs 3]
-//! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]`
+//! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]
+//! [--relaxation 1]` (the NLGS relaxation ω of softgrain, `solver.relaxation`)
 
 use rapier2d::prelude::*;
 use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
@@ -139,7 +140,7 @@ const PROGRESS: u64 = 200;
 
 // ---------------------------------------------------------------- softgrain
 
-fn run_softgrain(s: &Setup, seed: u64, budget: f64) -> Outcome {
+fn run_softgrain(s: &Setup, seed: u64, budget: f64, relax: f64) -> Outcome {
     let mut bodies = Bodies::default();
     for (k, (x, d)) in s.pos.iter().zip(&s.diameters).enumerate() {
         bodies.push(*x, 0.5 * d, defaults::DENSITY, k as u32);
@@ -155,6 +156,7 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64) -> Outcome {
             tol: defaults::NLGS_TOLERANCE,
             check_every: defaults::NLGS_CHECK_EVERY,
             max_iter: defaults::NLGS_MAX_ITERATIONS,
+            relax,
         },
     };
     let wall_laws = vec![
@@ -408,10 +410,10 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64) {
+fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64, relax: f64) {
     let s = setup(n, seed, step);
     let mut out = match engine {
-        "softgrain" => run_softgrain(&s, seed, budget),
+        "softgrain" => run_softgrain(&s, seed, budget, relax),
         "rapier" => run_rapier(&s, budget, false),
         "rapier-froude" => run_rapier(&s, budget, true),
         _ => panic!("unknown engine {engine}"),
@@ -444,10 +446,13 @@ fn main() {
     // Time step of both engines in units of sqrt(<d>/g); the prepare stage's default unless set.
     let step: f64 =
         arg(&args, "--step").map_or(defaults::DEPOSIT_STEP, |s| s.parse().expect("--step"));
+    let relax: f64 = arg(&args, "--relaxation").map_or(defaults::NLGS_RELAXATION, |s| {
+        s.parse().expect("--relaxation")
+    });
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
-        child(engine, n, seed, budget, step);
+        child(engine, n, seed, budget, step, relax);
         return;
     }
     let sizes: Vec<usize> = arg(&args, "--sizes")
@@ -463,7 +468,8 @@ fn main() {
         .collect();
     let exe = std::env::current_exe().expect("own path");
     println!(
-        "deposit benchmark: seed {seed}, {runs} run(s) each, budget {budget} s, {} rayon threads",
+        "deposit benchmark: seed {seed}, {runs} run(s) each, budget {budget} s, {} rayon threads, \
+         softgrain NLGS relaxation {relax}",
         rayon::current_num_threads()
     );
     let mut table = Vec::new();
@@ -481,6 +487,7 @@ fn main() {
                     .args(["--child", engine, &n.to_string()])
                     .args(["--seed", &seed.to_string(), "--budget", &budget.to_string()])
                     .args(["--step", &step.to_string()])
+                    .args(["--relaxation", &relax.to_string()])
                     .stderr(std::process::Stdio::inherit())
                     .output()
                     .expect("child run");

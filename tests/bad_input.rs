@@ -127,6 +127,12 @@ const CASES: &[(&str, &str, &str, &str)] = &[
     ),
     (
         PACKING,
+        "name: p",
+        "name: p\nsolver:\n  relaxation: 2.0",
+        "p.yaml:3:3: solver.relaxation = 2.0: must be in (0, 2)",
+    ),
+    (
+        PACKING,
         "grains: 30",
         "grains: 30\n  gravity: -9.81",
         "prepare.gravity = -9.81: must be a finite number >= 0",

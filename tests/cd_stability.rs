@@ -63,6 +63,7 @@ fn pair(dt: f64) -> Scene<Bond> {
             tol: 1e-6,
             check_every: 5,
             max_iter: 1000,
+            relax: 1.0,
         },
     };
     Scene::new(b, vec![], LawTable::new(bond, bond, vec![]), params, 1)
@@ -153,6 +154,7 @@ fn a_bpm_grain_far_above_its_step_limit_stops_at_once() {
                 tol: 1.666e-4,
                 check_every: 10,
                 max_iter: 5000,
+                relax: 1.0,
             },
         };
         let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, vec![]);

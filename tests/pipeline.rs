@@ -3,6 +3,7 @@
 mod common;
 
 use common::{checkpoints, softgrain, stderr, stdout, temp_dir, write};
+use serde_json::json;
 use softgrain::config;
 use softgrain::pipeline::{Stage, plan};
 
@@ -151,6 +152,10 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(s, m);
     let s = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.5]"]);
     assert_eq!(s, base);
+    // a key added later keeps the old names at its default, and renames everything otherwise
+    assert_eq!(hashes(&dir, GRAPH, &["solver.relaxation=1.0"]), base);
+    let r = hashes(&dir, GRAPH, &["solver.relaxation=1.5"]);
+    assert_eq!(changed(&r).len(), base.len());
     // a case is named by its own friction and particle range, not by the lists: adding a
     // friction value or dropping one leaves the other cases' names (and work) alone
     let more = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.25,0.5]"]);
@@ -161,6 +166,28 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
             |nodes: &[(Stage, String, String)]| nodes.iter().any(|n| &n.1 == case && &n.2 == hash);
         assert!(same(&more), "{case} renamed by adding a friction value");
         assert_eq!(same(&fewer), !case.ends_with("-mu0"), "{case}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn each_compact_case_gets_its_own_friction_and_particle_range() {
+    // the stages read a case's friction and particle range from its node (what is hashed)
+    let dir = temp_dir("case-values");
+    let l = config::load(&write(&dir, "g.yaml", GRAPH), &[]).unwrap();
+    for n in plan(&l) {
+        let want = match n.stage {
+            Stage::Compact if n.case.ends_with("-mu0.5") => Some(0.5),
+            Stage::Compact => Some(0.0),
+            _ => None,
+        };
+        assert_eq!(n.friction(), want, "{}", n.case);
+        if n.stage == Stage::Discretise && n.case.starts_with("bpm-d0.16") {
+            assert_eq!(
+                n.params["bpm"]["particle_diameter"],
+                json!([1.6e-4, 2.6e-4])
+            );
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

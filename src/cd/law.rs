@@ -46,6 +46,14 @@ pub trait InteractionLaw: Send + Sync {
         let bound = mu * p_n;
         (p_n, (-u_t / w_tt).clamp(-bound, bound))
     }
+
+    /// A relaxed impulse (`NlgsParams::relax`) brought back into the admissible set,
+    /// `p_n ≥ 0`, `|p_t| ≤ μ p_n`: a law that overrides `solve` overrides this with it.
+    fn project(&self, p_n: f64, p_t: f64) -> (f64, f64) {
+        let p_n = p_n.max(0.0);
+        let bound = self.friction() * p_n;
+        (p_n, p_t.clamp(-bound, bound))
+    }
 }
 
 /// Unilateral contact with Coulomb friction `mu` and no cohesion: rigid disks, inter-grain

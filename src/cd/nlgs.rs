@@ -15,6 +15,10 @@ pub struct NlgsParams {
     pub tol: f64,
     pub check_every: u32,
     pub max_iter: u32,
+    /// Relaxation ω of each local solve (projected SOR): the impulse moves ω times the
+    /// Gauss-Seidel step from its old value and is projected back onto the law's admissible
+    /// set. 1 is plain NLGS; the fixed point, hence the solution, is the same for any ω.
+    pub relax: f64,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -115,26 +119,38 @@ struct Update {
     w: [f64; 3],
 }
 
+/// What every local solve of a sweep reads besides its row: the packed bodies (a raw
+/// pointer, so that the coloured sweep can run rows of one colour on several threads), the
+/// number of disks (higher indices are walls), the laws and the relaxation ω.
+struct Sweep<'a, L> {
+    dofs: Shared,
+    n_bodies: u32,
+    laws: &'a LawTable<L>,
+    relax: f64,
+}
+
+impl<L> Clone for Sweep<'_, L> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<L> Copy for Sweep<'_, L> {}
+
 /// One local solve (METHODS.md §1.5) on packed data: (p_n, p_t), then the rolling impulse.
-/// `dofs` is a raw pointer so that the coloured sweep can run rows of one colour on several
-/// threads; the caller guarantees that no other thread writes bodies `r.i`, `r.j` meanwhile.
+/// The caller guarantees that no other thread writes bodies `r.i`, `r.j` meanwhile.
 ///
 /// # Safety
-/// `dofs` points to at least max(r.i, r.j) + 1 valid bodies, and bodies `r.i` and (when
-/// `r.j < n_bodies`) `r.j` are not accessed by another thread during the call.
+/// `s.dofs` points to at least max(r.i, r.j) + 1 valid bodies, and bodies `r.i` and (when
+/// `r.j < s.n_bodies`) `r.j` are not accessed by another thread during the call.
 #[inline(always)]
-unsafe fn update_row<L: InteractionLaw>(
-    r: &mut Row,
-    dofs: *mut Dof,
-    n_bodies: u32,
-    laws: &LawTable<L>,
-) -> Update {
+unsafe fn update_row<L: InteractionLaw>(r: &mut Row, s: Sweep<L>) -> Update {
     let old = [r.p_n, r.p_t, r.p_r];
+    let (dofs, n_bodies) = (s.dofs.get(), s.n_bodies);
     // SAFETY: per the contract above.
-    unsafe { update_contact(r, dofs, n_bodies, laws) };
+    unsafe { update_contact(r, dofs, n_bodies, s.laws, s.relax) };
     let w_rr = if r.rolling {
         // SAFETY: as above.
-        unsafe { update_rolling(r, laws.get(r.law).rolling(), dofs, n_bodies) }
+        unsafe { update_rolling(r, s.laws.get(r.law).rolling(), dofs, n_bodies) }
     } else {
         0.0
     };
@@ -155,15 +171,28 @@ unsafe fn update_contact<L: InteractionLaw>(
     dofs: *mut Dof,
     n_bodies: u32,
     laws: &LawTable<L>,
+    relax: f64,
 ) {
     // SAFETY: per the contract of `update_row`.
     let (bi, bj) = unsafe { (&mut *dofs.add(r.i as usize), *dofs.add(r.j as usize)) };
     let dv = bi.v - bj.v;
     let hat_n = dv.dot(&r.n) - r.w_nn * r.p_n + r.shift;
     let law = laws.get(r.law);
+    // p_old + ω (p_GS - p_old), projected; skipped at ω = 1 to keep plain NLGS's bits.
+    let relaxed = |new: (f64, f64), old: (f64, f64)| {
+        if relax == 1.0 {
+            new
+        } else {
+            law.project(
+                old.0 + relax * (new.0 - old.0),
+                old.1 + relax * (new.1 - old.1),
+            )
+        }
+    };
     if !r.frictional {
         // μ = 0: p_t stays 0 and no spin changes, so only the normal row is solved.
         let p_n = law.solve(hat_n, 0.0, r.w_nn, r.w_tt).0;
+        let p_n = relaxed((p_n, 0.0), (r.p_n, 0.0)).0;
         let p = (p_n - r.p_n) * r.n;
         bi.v += bi.im * p;
         if r.j < n_bodies {
@@ -175,7 +204,8 @@ unsafe fn update_contact<L: InteractionLaw>(
     }
     let t = perp(r.n);
     let u_t = dv.dot(&t) - bi.r * bi.w - bj.r * bj.w;
-    let (p_n, p_t) = law.solve(hat_n, u_t - r.w_tt * r.p_t, r.w_nn, r.w_tt);
+    let gs = law.solve(hat_n, u_t - r.w_tt * r.p_t, r.w_nn, r.w_tt);
+    let (p_n, p_t) = relaxed(gs, (r.p_n, r.p_t));
     let (dp_n, dp_t) = (p_n - r.p_n, p_t - r.p_t);
     let p = dp_n * r.n + dp_t * t;
     bi.v += bi.im * p;
@@ -306,8 +336,12 @@ pub fn solve<L: InteractionLaw>(
         .collect();
     let coloured = rows.len() >= COLOURED_MIN;
     let mut colouring = Colouring::default();
-    let laws = data.laws;
-    let ptr = Shared(dofs.as_mut_ptr());
+    let sweep = Sweep {
+        dofs: Shared(dofs.as_mut_ptr()),
+        n_bodies: nb,
+        laws: data.laws,
+        relax: params.relax,
+    };
     let mut first = true;
     loop {
         // Shuffling the rows themselves draws the same numbers as shuffling `order` and keeps
@@ -323,21 +357,21 @@ pub fn solve<L: InteractionLaw>(
         let sweeps = params.check_every.max(1);
         for _ in 1..sweeps {
             if coloured {
-                colouring.sweep(&mut rows, ptr, nb, laws);
+                colouring.sweep(&mut rows, sweep);
             } else {
                 for r in rows.iter_mut() {
                     // SAFETY: one thread; every index is within `dofs`.
-                    unsafe { update_row(r, ptr.get(), nb, laws) };
+                    unsafe { update_row(r, sweep) };
                 }
             }
         }
         let norms = if coloured {
-            colouring.check_sweep(&mut rows, ptr, nb, laws)
+            colouring.check_sweep(&mut rows, sweep)
         } else {
             let mut norms = Norms::default();
             for r in rows.iter_mut() {
                 // SAFETY: as above.
-                norms.add(unsafe { update_row(r, ptr.get(), nb, laws) });
+                norms.add(unsafe { update_row(r, sweep) });
             }
             norms
         };
@@ -424,32 +458,26 @@ impl Colouring {
             .filter(|(_, r)| !r.is_empty())
     }
 
-    fn sweep<L: InteractionLaw>(&self, rows: &mut [Row], ptr: Shared, nb: u32, laws: &LawTable<L>) {
+    fn sweep<L: InteractionLaw>(&self, rows: &mut [Row], sweep: Sweep<L>) {
         for (c, range) in self.classes() {
             let class = &mut rows[range];
             if c == Self::SERIAL as usize || class.len() <= CHUNK {
                 for r in class.iter_mut() {
                     // SAFETY: one thread at a time here.
-                    unsafe { update_row(r, ptr.get(), nb, laws) };
+                    unsafe { update_row(r, sweep) };
                 }
             } else {
                 class.par_chunks_mut(CHUNK).for_each(|chunk| {
                     for r in chunk.iter_mut() {
                         // SAFETY: rows of one colour share no disk.
-                        unsafe { update_row(r, ptr.get(), nb, laws) };
+                        unsafe { update_row(r, sweep) };
                     }
                 });
             }
         }
     }
 
-    fn check_sweep<L: InteractionLaw>(
-        &self,
-        rows: &mut [Row],
-        ptr: Shared,
-        nb: u32,
-        laws: &LawTable<L>,
-    ) -> Norms {
+    fn check_sweep<L: InteractionLaw>(&self, rows: &mut [Row], sweep: Sweep<L>) -> Norms {
         let mut total = Norms::default();
         for (c, range) in self.classes() {
             let class = &mut rows[range];
@@ -457,7 +485,7 @@ impl Colouring {
                 let mut norms = Norms::default();
                 for r in chunk.iter_mut() {
                     // SAFETY: rows of one colour share no disk (or run on one thread).
-                    norms.add(unsafe { update_row(r, ptr.get(), nb, laws) });
+                    norms.add(unsafe { update_row(r, sweep) });
                 }
                 norms
             };

@@ -162,6 +162,8 @@ pub struct Solver {
     pub check_every: u32,
     /// Maximum sweeps per step.
     pub max_iterations: u32,
+    /// Relaxation ω of each local solve, in (0, 2): 1 is plain NLGS.
+    pub relaxation: f64,
     /// Alert distance in units of the smallest diameter.
     pub alert: f64,
     /// Verlet skin in units of the smallest diameter.
@@ -175,6 +177,7 @@ impl Default for Solver {
             tolerance: d::NLGS_TOLERANCE,
             check_every: d::NLGS_CHECK_EVERY,
             max_iterations: d::NLGS_MAX_ITERATIONS,
+            relaxation: d::NLGS_RELAXATION,
             alert: d::ALERT,
             skin: d::SKIN,
         }

@@ -201,6 +201,9 @@ fn solver(s: &Solver) -> Result<(), Failure> {
             "must be >= solver.check_every",
         )?;
     }
+    if !(s.relaxation > 0.0 && s.relaxation < 2.0) {
+        fail("solver.relaxation", s.relaxation, "must be in (0, 2)")?;
+    }
     positive("solver.alert", s.alert)?;
     non_negative("solver.skin", s.skin)
 }

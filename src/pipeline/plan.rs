@@ -4,7 +4,7 @@
 //! always has equal names and `--set` hashes exactly like an edited file.
 
 use super::codec::FORMAT_VERSION;
-use crate::config::{Layout, Loaded, Method, Pipeline};
+use crate::config::{Layout, Loaded, Method, Pipeline, Solver};
 use serde::Serialize;
 use serde_json::json;
 
@@ -69,6 +69,11 @@ impl Node {
         }
     }
 
+    /// The case's inter-grain friction: `Some` on compact nodes only.
+    pub fn friction(&self) -> Option<f64> {
+        self.params["compact"]["friction"].as_f64()
+    }
+
     /// File name of the node's checkpoint.
     pub fn checkpoint_name(&self) -> String {
         format!("{}.{}.{}.ckpt", self.stage.name(), self.case, self.short())
@@ -110,6 +115,16 @@ fn one_of<S: Serialize, V: Serialize>(section: &S, key: &str, value: V) -> serde
     v
 }
 
+/// The solver section as hashed: `relaxation` (added later) is left out at its plain-NLGS
+/// value 1, so that the nodes of pipelines that do not set it keep their names.
+fn canonical_solver(s: &Solver) -> serde_json::Value {
+    let mut v = serde_json::to_value(s).expect("parameters serialise");
+    if s.relaxation == 1.0 {
+        v.as_object_mut().expect("a section").remove("relaxation");
+    }
+    v
+}
+
 /// Readable, stable number formatting for case names: 0.5 -> "0.5", 1.6e-4 -> "0.16" (mm).
 fn mm(x: f64) -> String {
     format!("{}", (x * 1e3 * 1e6).round() / 1e6)
@@ -141,8 +156,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
         Layout::Single => "single",
         Layout::Explicit => "explicit",
     };
-    let prep =
-        json!({"seed": p.seed, "prepare": p.prepare, "solver": p.solver, "output": p.output});
+    let prep = json!({"seed": p.seed, "prepare": p.prepare, "solver": canonical_solver(&p.solver), "output": p.output});
     nodes.push(node(Stage::Prepare, case.into(), &prep, vec![], nodes));
     let prepared = nodes.len() - 1;
     let mut discretised = Vec::new();
@@ -185,7 +199,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
         for (up, dcase) in &discretised {
             for mu in c.friction.to_vec() {
                 let case = format!("{dcase}-mu{mu}");
-                let params = json!({"compact": one_of(c, "friction", mu), "solver": p.solver, "output": p.output});
+                let params = json!({"compact": one_of(c, "friction", mu), "solver": canonical_solver(&p.solver), "output": p.output});
                 nodes.push(node(Stage::Compact, case, &params, vec![*up], nodes));
                 nodes.last_mut().expect("pushed").method = nodes[*up].method;
                 compacted.push(nodes.len() - 1);

@@ -40,7 +40,7 @@ pub fn inputs<'a>(
         .iter()
         .zip(upstream)
         .map(|(n, &s)| {
-            let mu = n.params["friction"].as_f64().unwrap_or(0.0);
+            let mu = n.friction().unwrap_or(0.0);
             (n.case.clone(), mu, s)
         })
         .collect()

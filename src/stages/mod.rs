@@ -72,6 +72,7 @@ pub(crate) fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> C
             tol: solver.tolerance,
             check_every: solver.check_every,
             max_iter: solver.max_iterations,
+            relax: solver.relaxation,
         },
     }
 }
@@ -127,23 +128,24 @@ pub fn run(
                 .as_ref()
                 .expect("planned from the discretise section");
             let bpm = d.bpm.as_ref().expect("validated");
-            let range: [f64; 2] = serde_json::from_value(node.params["particle_diameter"].clone())
-                .map_err(|e| format!("bad planned parameters: {e}"))?;
+            let range: [f64; 2] =
+                serde_json::from_value(node.params["bpm"]["particle_diameter"].clone())
+                    .map_err(|e| format!("bad planned parameters: {e}"))?;
             let (g, summary) = discretise::run_bpm(p, bpm, range, prep, ctx)?;
             Ok((StageState::Bpm(g), summary))
         }
         (Stage::Compact, [StageState::Bpm(g)]) if g.layout == Layout::Packing => {
-            let mu = node.params["friction"].as_f64().unwrap_or(0.0);
+            let mu = node.friction().expect("a compact node has its friction");
             let (c, summary) = bpm_packing::run(p, mu, g, ctx)?;
             Ok((StageState::Packing(c), summary))
         }
         (Stage::Compact, [StageState::Bpm(g)]) => {
-            let mu = node.params["friction"].as_f64().unwrap_or(0.0);
+            let mu = node.friction().expect("a compact node has its friction");
             let (c, summary) = compact::run_bpm(p, mu, g, ctx)?;
             Ok((StageState::Compacted(c), summary))
         }
         (Stage::Compact, [StageState::MpmPacking(g)]) => {
-            let mu = node.params["friction"].as_f64().unwrap_or(0.0);
+            let mu = node.friction().expect("a compact node has its friction");
             let (c, summary) = mpm_packing::compact(p, mu, g, ctx)?;
             Ok((StageState::Packing(c), summary))
         }
