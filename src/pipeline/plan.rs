@@ -156,7 +156,8 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
         Layout::Single => "single",
         Layout::Explicit => "explicit",
     };
-    let prep = json!({"seed": p.seed, "prepare": p.prepare, "solver": canonical_solver(&p.solver), "output": p.output});
+    let solver = canonical_solver(&p.solver);
+    let prep = json!({"seed": p.seed, "prepare": p.prepare, "solver": solver, "output": p.output});
     nodes.push(node(Stage::Prepare, case.into(), &prep, vec![], nodes));
     let prepared = nodes.len() - 1;
     let mut discretised = Vec::new();
@@ -174,7 +175,8 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                             } else {
                                 "bpm".into()
                             };
-                            let params = json!({"seed": p.seed, "bpm": one_of(&bpm, "particle_diameter", r)});
+                            let bpm = one_of(&bpm, "particle_diameter", r);
+                            let params = json!({"seed": p.seed, "bpm": bpm});
                             (case, params)
                         })
                         .collect()
@@ -199,7 +201,8 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
         for (up, dcase) in &discretised {
             for mu in c.friction.to_vec() {
                 let case = format!("{dcase}-mu{mu}");
-                let params = json!({"compact": one_of(c, "friction", mu), "solver": canonical_solver(&p.solver), "output": p.output});
+                let compact = one_of(c, "friction", mu);
+                let params = json!({"compact": compact, "solver": solver, "output": p.output});
                 nodes.push(node(Stage::Compact, case, &params, vec![*up], nodes));
                 nodes.last_mut().expect("pushed").method = nodes[*up].method;
                 compacted.push(nodes.len() - 1);

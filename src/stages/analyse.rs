@@ -40,6 +40,7 @@ pub fn inputs<'a>(
         .iter()
         .zip(upstream)
         .map(|(n, &s)| {
+            // (an upstream discretise node, a single grain not compacted, has none)
             let mu = n.friction().unwrap_or(0.0);
             (n.case.clone(), mu, s)
         })
