@@ -140,7 +140,8 @@ const PROGRESS: u64 = 200;
 
 // ---------------------------------------------------------------- softgrain
 
-fn run_softgrain(s: &Setup, seed: u64, budget: f64, relax: f64) -> Outcome {
+fn run_softgrain(s: &Setup, seed: u64, budget: f64, solver: (f64, u32, u32)) -> Outcome {
+    let (relax, anderson, check_every) = solver;
     let mut bodies = Bodies::default();
     for (k, (x, d)) in s.pos.iter().zip(&s.diameters).enumerate() {
         bodies.push(*x, 0.5 * d, defaults::DENSITY, k as u32);
@@ -154,9 +155,10 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64, relax: f64) -> Outcome {
         skin: defaults::SKIN * d_min,
         nlgs: NlgsParams {
             tol: defaults::NLGS_TOLERANCE,
-            check_every: defaults::NLGS_CHECK_EVERY,
+            check_every,
             max_iter: defaults::NLGS_MAX_ITERATIONS,
             relax,
+            anderson,
         },
     };
     let wall_laws = vec![
@@ -202,12 +204,13 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64, relax: f64) -> Outcome {
         }
         if trace || scene.steps.is_multiple_of(PROGRESS) {
             eprintln!(
-                "  softgrain step {} t = {:.4} s, {} contacts, {} sweeps, {} resumed, {:.0} s wall",
+                "  softgrain step {} t = {:.4} s, {} contacts, {} sweeps, {} resumed, rest ratio {:.2e}, {:.0} s wall",
                 scene.steps,
                 scene.time,
                 r.contacts,
                 r.nlgs.iterations,
                 r.resumed,
+                rest_ratio(scene.bodies.translational_energy(), mass, s.d_mean),
                 t0.elapsed().as_secs_f64()
             );
         }
@@ -410,10 +413,10 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64, relax: f64) {
+fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64, solver: (f64, u32, u32)) {
     let s = setup(n, seed, step);
     let mut out = match engine {
-        "softgrain" => run_softgrain(&s, seed, budget, relax),
+        "softgrain" => run_softgrain(&s, seed, budget, solver),
         "rapier" => run_rapier(&s, budget, false),
         "rapier-froude" => run_rapier(&s, budget, true),
         _ => panic!("unknown engine {engine}"),
@@ -449,10 +452,22 @@ fn main() {
     let relax: f64 = arg(&args, "--relaxation").map_or(defaults::NLGS_RELAXATION, |s| {
         s.parse().expect("--relaxation")
     });
+    let anderson: u32 = arg(&args, "--anderson")
+        .map_or(defaults::NLGS_ANDERSON, |s| s.parse().expect("--anderson"));
+    let check_every: u32 = arg(&args, "--check-every").map_or(defaults::NLGS_CHECK_EVERY, |s| {
+        s.parse().expect("--check-every")
+    });
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
-        child(engine, n, seed, budget, step, relax);
+        child(
+            engine,
+            n,
+            seed,
+            budget,
+            step,
+            (relax, anderson, check_every),
+        );
         return;
     }
     let sizes: Vec<usize> = arg(&args, "--sizes")

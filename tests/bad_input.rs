@@ -133,6 +133,12 @@ const CASES: &[(&str, &str, &str, &str)] = &[
     ),
     (
         PACKING,
+        "name: p",
+        "name: p\nsolver:\n  anderson: 17",
+        "p.yaml:3:3: solver.anderson = 17: must be in 0..=16",
+    ),
+    (
+        PACKING,
         "grains: 30",
         "grains: 30\n  gravity: -9.81",
         "prepare.gravity = -9.81: must be a finite number >= 0",

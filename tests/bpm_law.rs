@@ -36,6 +36,7 @@ fn pair(gap: f64, g1: u32, g2: u32, pull: f64) -> Scene<BpmLaw> {
             check_every: 1,
             max_iter: 100,
             relax: 1.0,
+            anderson: 0,
         },
     };
     Scene::new(b, vec![], laws, params, 1)
@@ -206,6 +207,7 @@ fn rolling_resistance_lets_floor_friction_turn_the_whole_grain() {
                 check_every: 1,
                 max_iter: 1000,
                 relax: 1.0,
+                anderson: 0,
             },
         };
         let floor_wall = Wall::new(V2::new(-100.0, 0.0), V2::new(100.0, 0.0));

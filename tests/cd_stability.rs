@@ -64,6 +64,7 @@ fn pair(dt: f64) -> Scene<Bond> {
             check_every: 5,
             max_iter: 1000,
             relax: 1.0,
+            anderson: 0,
         },
     };
     Scene::new(b, vec![], LawTable::new(bond, bond, vec![]), params, 1)
@@ -155,6 +156,7 @@ fn a_bpm_grain_far_above_its_step_limit_stops_at_once() {
                 check_every: 10,
                 max_iter: 5000,
                 relax: 1.0,
+                anderson: 0,
             },
         };
         let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, vec![]);

@@ -156,6 +156,9 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(hashes(&dir, GRAPH, &["solver.relaxation=1.0"]), base);
     let r = hashes(&dir, GRAPH, &["solver.relaxation=1.5"]);
     assert_eq!(changed(&r).len(), base.len());
+    assert_eq!(hashes(&dir, GRAPH, &["solver.anderson=0"]), base);
+    let r = hashes(&dir, GRAPH, &["solver.anderson=8"]);
+    assert_eq!(changed(&r).len(), base.len());
     // a case is named by its own friction and particle range, not by the lists: adding a
     // friction value or dropping one leaves the other cases' names (and work) alone
     let more = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.25,0.5]"]);

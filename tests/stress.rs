@@ -338,6 +338,7 @@ fn bpm_compress(g: &discretise::BpmGrains, v: f64, dt_over_t0: f64, strain: f64)
             check_every: 10,
             max_iter: 5000,
             relax: 1.0,
+            anderson: 0,
         },
     };
     let wall_laws = vec![BpmLaw::Coulomb { mu: 0.0 }; 2];
@@ -541,6 +542,7 @@ fn initial_overlaps_are_kept_not_grown_or_refused_at_step_zero() {
                 check_every: 10,
                 max_iter: 5000,
                 relax: 1.0,
+                anderson: 0,
             },
         };
         let wall_laws = vec![

@@ -33,6 +33,7 @@ fn params(s: &CdSetting, dt: f64, d_min: f64) -> CdParams {
             check_every: defaults::NLGS_CHECK_EVERY,
             max_iter: defaults::NLGS_MAX_ITERATIONS,
             relax: defaults::NLGS_RELAXATION,
+            anderson: 0,
         },
     }
 }

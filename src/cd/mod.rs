@@ -13,6 +13,7 @@
 //! The engine takes plain structs and reports progress through callbacks; it never reads
 //! files or prints.
 
+mod anderson;
 mod bodies;
 mod contact;
 mod detect;

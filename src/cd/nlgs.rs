@@ -2,6 +2,7 @@
 //! equal to V_free + M⁻¹ Σ Hᵀ P at all times, so one contact update costs O(1) and no
 //! off-diagonal Delassus block is ever stored.
 
+use super::anderson::Anderson;
 use super::{Bodies, Contact, InteractionLaw, LawTable, Partner};
 use crate::geom::{V2, perp};
 use crate::rng::Rng;
@@ -19,6 +20,9 @@ pub struct NlgsParams {
     /// Gauss-Seidel step from its old value and is projected back onto the law's admissible
     /// set. 1 is plain NLGS; the fixed point, hence the solution, is the same for any ω.
     pub relax: f64,
+    /// Anderson acceleration's history depth m over blocks of `check_every` sweeps
+    /// (`anderson.rs`); 0 = off, plain (or over-relaxed) NLGS.
+    pub anderson: u32,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -220,6 +224,29 @@ unsafe fn update_contact<L: InteractionLaw>(
     r.p_t = p_t;
 }
 
+/// Sets the contact's impulses to (p_n, p_t) and moves its bodies' velocities with them,
+/// keeping V = V_free + M⁻¹ Σ Hᵀ P.
+///
+/// # Safety
+/// As `update_row`.
+#[inline(always)]
+unsafe fn move_impulse(r: &mut Row, dofs: *mut Dof, n_bodies: u32, p_n: f64, p_t: f64) {
+    let (dp_n, dp_t) = (p_n - r.p_n, p_t - r.p_t);
+    let p = dp_n * r.n + dp_t * perp(r.n);
+    // SAFETY: per the contract of `update_row`.
+    let bi = unsafe { &mut *dofs.add(r.i as usize) };
+    bi.v += bi.im * p;
+    bi.w -= bi.ir * dp_t;
+    if r.j < n_bodies {
+        // SAFETY: as above; j != i.
+        let bj = unsafe { &mut *dofs.add(r.j as usize) };
+        bj.v -= bj.im * p;
+        bj.w -= bj.ir * dp_t;
+    }
+    r.p_n = p_n;
+    r.p_t = p_t;
+}
+
 /// Rolling resistance (METHODS.md §1.10), solved after (p_n, p_t) as its own clamped
 /// component: the rolling velocity u_r = ℓ (ω_i − ω_j) is stopped by an impulse p_r with
 /// |p_r| ≤ μ_r p_n, i.e. a moment up to μ_r ℓ p_n/h. Returns W_rr = ℓ² (1/I_i + 1/I_j).
@@ -342,8 +369,20 @@ pub fn solve<L: InteractionLaw>(
         laws: data.laws,
         relax: params.relax,
     };
+    // Rolling resistance's third impulse is left out of the accelerated vector, so the
+    // acceleration is used only without it.
+    let mut anderson = (params.anderson > 0 && !rows.iter().any(|r| r.rolling)).then(|| {
+        let slots: Vec<(usize, f64, f64)> = rows
+            .iter()
+            .map(|r| (r.k as usize, r.w_nn, r.w_tt))
+            .collect();
+        Anderson::new(params.anderson as usize, contacts.len(), &slots)
+    });
     let mut first = true;
     loop {
+        if let Some(a) = anderson.as_mut() {
+            a.begin(rows.iter().map(|r| (r.k as usize, r.p_n, r.p_t)));
+        }
         // Shuffling the rows themselves draws the same numbers as shuffling `order` and keeps
         // the sweep's reads of the rows sequential. The coloured sweep shuffles and colours
         // once per step: for 10⁵ contacts both cost more than the sweeps they would reorder.
@@ -383,6 +422,17 @@ pub fn solve<L: InteractionLaw>(
         }
         if report.iterations >= params.max_iter {
             break;
+        }
+        if let Some(a) = anderson.as_mut()
+            && let Some(x) = a.next(rows.iter().map(|r| (r.k as usize, r.p_n, r.p_t)))
+        {
+            for r in rows.iter_mut() {
+                let (p_n, p_t) = x(r.k as usize);
+                let (p_n, p_t) = data.laws.get(r.law).project(p_n, p_t);
+                let p_t = if r.frictional { p_t } else { 0.0 };
+                // SAFETY: one thread; every index is within `dofs`.
+                unsafe { move_impulse(r, sweep.dofs.get(), nb, p_n, p_t) };
+            }
         }
     }
     for (slot, r) in order.iter_mut().zip(&rows) {

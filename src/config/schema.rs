@@ -164,6 +164,9 @@ pub struct Solver {
     pub max_iterations: u32,
     /// Relaxation ω of each local solve, in (0, 2): 1 is plain NLGS.
     pub relaxation: f64,
+    /// Anderson acceleration's history depth over blocks of `check_every` sweeps, 0-16:
+    /// 0 is off.
+    pub anderson: u32,
     /// Alert distance in units of the smallest diameter.
     pub alert: f64,
     /// Verlet skin in units of the smallest diameter.
@@ -178,6 +181,7 @@ impl Default for Solver {
             check_every: d::NLGS_CHECK_EVERY,
             max_iterations: d::NLGS_MAX_ITERATIONS,
             relaxation: d::NLGS_RELAXATION,
+            anderson: d::NLGS_ANDERSON,
             alert: d::ALERT,
             skin: d::SKIN,
         }

@@ -204,6 +204,9 @@ fn solver(s: &Solver) -> Result<(), Failure> {
     if !(s.relaxation > 0.0 && s.relaxation < 2.0) {
         fail("solver.relaxation", s.relaxation, "must be in (0, 2)")?;
     }
+    if s.anderson > 16 {
+        fail("solver.anderson", s.anderson, "must be in 0..=16")?;
+    }
     positive("solver.alert", s.alert)?;
     non_negative("solver.skin", s.skin)
 }

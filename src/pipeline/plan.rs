@@ -115,12 +115,17 @@ fn one_of<S: Serialize, V: Serialize>(section: &S, key: &str, value: V) -> serde
     v
 }
 
-/// The solver section as hashed: `relaxation` (added later) is left out at its plain-NLGS
-/// value 1, so that the nodes of pipelines that do not set it keep their names.
+/// The solver section as hashed: `relaxation` and `anderson` (added later) are left out at
+/// their plain-NLGS values 1 and 0, so that the nodes of pipelines that do not set them keep
+/// their names.
 fn canonical_solver(s: &Solver) -> serde_json::Value {
     let mut v = serde_json::to_value(s).expect("parameters serialise");
+    let section = v.as_object_mut().expect("a section");
     if s.relaxation == 1.0 {
-        v.as_object_mut().expect("a section").remove("relaxation");
+        section.remove("relaxation");
+    }
+    if s.anderson == 0 {
+        section.remove("anderson");
     }
     v
 }

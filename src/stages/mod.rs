@@ -73,6 +73,7 @@ pub(crate) fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> C
             check_every: solver.check_every,
             max_iter: solver.max_iterations,
             relax: solver.relaxation,
+            anderson: solver.anderson,
         },
     }
 }
