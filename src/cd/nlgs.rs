@@ -210,18 +210,8 @@ unsafe fn update_contact<L: InteractionLaw>(
     let u_t = dv.dot(&t) - bi.r * bi.w - bj.r * bj.w;
     let gs = law.solve(hat_n, u_t - r.w_tt * r.p_t, r.w_nn, r.w_tt);
     let (p_n, p_t) = relaxed(gs, (r.p_n, r.p_t));
-    let (dp_n, dp_t) = (p_n - r.p_n, p_t - r.p_t);
-    let p = dp_n * r.n + dp_t * t;
-    bi.v += bi.im * p;
-    bi.w -= bi.ir * dp_t;
-    if r.j < n_bodies {
-        // SAFETY: as above; j != i (a disk never touches itself).
-        let bj = unsafe { &mut *dofs.add(r.j as usize) };
-        bj.v -= bj.im * p;
-        bj.w -= bj.ir * dp_t;
-    }
-    r.p_n = p_n;
-    r.p_t = p_t;
+    // SAFETY: per the contract of `update_row`.
+    unsafe { move_impulse(r, dofs, n_bodies, p_n, p_t) };
 }
 
 /// Sets the contact's impulses to (p_n, p_t) and moves its bodies' velocities with them,
@@ -238,7 +228,7 @@ unsafe fn move_impulse(r: &mut Row, dofs: *mut Dof, n_bodies: u32, p_n: f64, p_t
     bi.v += bi.im * p;
     bi.w -= bi.ir * dp_t;
     if r.j < n_bodies {
-        // SAFETY: as above; j != i.
+        // SAFETY: as above; j != i (a disk never touches itself).
         let bj = unsafe { &mut *dofs.add(r.j as usize) };
         bj.v -= bj.im * p;
         bj.w -= bj.ir * dp_t;
