@@ -173,8 +173,12 @@ pub struct PackingFigures {
     pub unconverged_steps: u64,
     /// Largest `Row::overlap` of the run.
     pub overlap_max: f64,
-    /// Largest relative change of the total grain area (BPM) or mass (MPM) over the run.
+    /// Largest relative change of the total grain area over the run: the closed areas of
+    /// the aggregates (BPM), Σ v_p of the points (MPM).
     pub area_change: f64,
+    /// MPM: relative change of the total point mass at the end (the points carry the mass,
+    /// so it must be 0). BPM: None (rigid particles of fixed mass).
+    pub mass_change: Option<f64>,
     /// Largest `Row::kinetic_ratio` once loaded (`kinetic_ratio_after_jamming`).
     pub kinetic_ratio_max: f64,
 }

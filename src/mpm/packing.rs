@@ -356,8 +356,12 @@ impl Packing {
 
     /// `Φ = Σ v_p / (L h)`.
     pub fn phi(&self) -> f64 {
-        let area: f64 = self.grains.iter().flat_map(|g| g.vol.iter()).sum();
-        area / (self.width * self.height())
+        self.grain_area() / (self.width * self.height())
+    }
+
+    /// Σ v_p over every grain (m² per unit thickness).
+    pub fn grain_area(&self) -> f64 {
+        self.grains.iter().flat_map(|g| g.vol.iter()).sum()
     }
 
     pub fn total_mass(&self) -> f64 {

@@ -147,6 +147,8 @@ struct Running {
     rows: Vec<Row>,
     figures: PackingFigures,
     mass0: f64,
+    /// Σ v_p at the start (m²).
+    area0: f64,
     /// Sums over the current recording interval: wall forces (bottom, top, left, right),
     /// coupling iterations, steps; and the worst gap.
     forces: [f64; 4],
@@ -183,6 +185,7 @@ pub fn compact(
             let pk = packing(g, &prm, &moved, geometry.h0)?;
             Running {
                 mass0: pk.total_mass(),
+                area0: pk.grain_area(),
                 figures: PackingFigures {
                     time_step: pk.dt,
                     ..PackingFigures::default()
@@ -249,10 +252,10 @@ pub fn compact(
     let steps = f.steps.max(1);
     f.iterations_mean =
         st.rows.iter().map(|r| r.iterations).sum::<f64>() / st.rows.len().max(1) as f64;
-    f.area_change = (st.pk.total_mass() - st.mass0).abs() / st.mass0;
+    f.mass_change = Some((st.pk.total_mass() - st.mass0).abs() / st.mass0);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.2} h_g",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.2} h_g, grain area within {:.2}%",
         st.pk.grains.len(),
         st.pk.grains.iter().map(Points::len).sum::<usize>(),
         steps,
@@ -262,7 +265,8 @@ pub fn compact(
         last.phi,
         last.z,
         last.sigma,
-        f.overlap_max
+        f.overlap_max,
+        100.0 * f.area_change
     );
     let h = st.pk.grid.h;
     let particles = st
@@ -341,6 +345,7 @@ fn record(st: &mut Running, mu: f64) {
     };
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
+    f.area_change = f.area_change.max((pk.grain_area() / st.area0 - 1.0).abs());
     if st.touched_top {
         f.kinetic_ratio_max = f.kinetic_ratio_max.max(row.kinetic_ratio);
     }
