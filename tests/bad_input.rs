@@ -138,6 +138,12 @@ const CASES: &[(&str, &str, &str, &str)] = &[
         "p.yaml:3:3: solver.anderson = 17: must be in 0..=16",
     ),
     (
+        GRAIN,
+        "    f0: 100.0\n  mpm:\n    young: 1.0e7\n    poisson: 0.45\n    density: 990.0\n    resolution: 0.029\n",
+        "    f0: 100.0\n    rolling_resistance: 1.0\n  mpm:\n    young: 1.0e7\n    poisson: 0.45\n    density: 990.0\n    resolution: 0.029\nsolver:\n  anderson: 8\n",
+        "g.yaml:18:3: solver.anderson = 8: must be 0 with discretise.bpm.rolling_resistance > 0",
+    ),
+    (
         PACKING,
         "grains: 30",
         "grains: 30\n  gravity: -9.81",

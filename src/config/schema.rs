@@ -165,7 +165,7 @@ pub struct Solver {
     /// Relaxation ω of each local solve, in (0, 2): 1 is plain NLGS.
     pub relaxation: f64,
     /// Anderson acceleration's history depth over blocks of `check_every` sweeps, 0-16:
-    /// 0 is off.
+    /// 0 is off. Not with rolling resistance.
     pub anderson: u32,
     /// Alert distance in units of the smallest diameter.
     pub alert: f64,

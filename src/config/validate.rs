@@ -58,6 +58,14 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
     if let Some(d) = &p.discretise {
         discretise(d)?;
         bpm_fits(p, d)?;
+        // the rolling impulse is not in Anderson's accelerated vector (`cd/anderson.rs`)
+        if p.solver.anderson > 0 && d.bpm.as_ref().is_some_and(|b| b.rolling_resistance > 0.0) {
+            fail(
+                "solver.anderson",
+                p.solver.anderson,
+                "must be 0 with discretise.bpm.rolling_resistance > 0",
+            )?;
+        }
     }
     if let Some(c) = &p.compact {
         positive("compact.wall_velocity", c.wall_velocity)?;
