@@ -13,7 +13,8 @@
 //!
 //! Usage: `cargo bench --bench deposit -- [--sizes 300,30000] [--runs 3]
 //! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]
-//! [--relaxation 1]` (the NLGS relaxation ω of softgrain, `solver.relaxation`)
+//! [--relaxation 1] [--anderson 0] [--check-every 10]` (softgrain's NLGS: relaxation ω,
+//! `solver.relaxation`; Anderson depth, `solver.anderson`; sweeps between checks)
 
 use rapier2d::prelude::*;
 use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
@@ -140,8 +141,7 @@ const PROGRESS: u64 = 200;
 
 // ---------------------------------------------------------------- softgrain
 
-fn run_softgrain(s: &Setup, seed: u64, budget: f64, solver: (f64, u32, u32)) -> Outcome {
-    let (relax, anderson, check_every) = solver;
+fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) -> Outcome {
     let mut bodies = Bodies::default();
     for (k, (x, d)) in s.pos.iter().zip(&s.diameters).enumerate() {
         bodies.push(*x, 0.5 * d, defaults::DENSITY, k as u32);
@@ -153,13 +153,7 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64, solver: (f64, u32, u32)) -> 
         gravity: V2::new(0.0, -defaults::GRAVITY),
         alert: defaults::ALERT * d_min,
         skin: defaults::SKIN * d_min,
-        nlgs: NlgsParams {
-            tol: defaults::NLGS_TOLERANCE,
-            check_every,
-            max_iter: defaults::NLGS_MAX_ITERATIONS,
-            relax,
-            anderson,
-        },
+        nlgs,
     };
     let wall_laws = vec![
         Coulomb {
@@ -413,10 +407,10 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64, solver: (f64, u32, u32)) {
+fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64, nlgs: NlgsParams) {
     let s = setup(n, seed, step);
     let mut out = match engine {
-        "softgrain" => run_softgrain(&s, seed, budget, solver),
+        "softgrain" => run_softgrain(&s, seed, budget, nlgs),
         "rapier" => run_rapier(&s, budget, false),
         "rapier-froude" => run_rapier(&s, budget, true),
         _ => panic!("unknown engine {engine}"),
@@ -449,25 +443,23 @@ fn main() {
     // Time step of both engines in units of sqrt(<d>/g); the prepare stage's default unless set.
     let step: f64 =
         arg(&args, "--step").map_or(defaults::DEPOSIT_STEP, |s| s.parse().expect("--step"));
-    let relax: f64 = arg(&args, "--relaxation").map_or(defaults::NLGS_RELAXATION, |s| {
-        s.parse().expect("--relaxation")
-    });
-    let anderson: u32 = arg(&args, "--anderson")
-        .map_or(defaults::NLGS_ANDERSON, |s| s.parse().expect("--anderson"));
-    let check_every: u32 = arg(&args, "--check-every").map_or(defaults::NLGS_CHECK_EVERY, |s| {
-        s.parse().expect("--check-every")
-    });
+    // softgrain's NLGS: the defaults, with ω, Anderson's depth and the check interval settable
+    let nlgs = NlgsParams {
+        tol: defaults::NLGS_TOLERANCE,
+        check_every: arg(&args, "--check-every").map_or(defaults::NLGS_CHECK_EVERY, |s| {
+            s.parse().expect("--check-every")
+        }),
+        max_iter: defaults::NLGS_MAX_ITERATIONS,
+        relax: arg(&args, "--relaxation").map_or(defaults::NLGS_RELAXATION, |s| {
+            s.parse().expect("--relaxation")
+        }),
+        anderson: arg(&args, "--anderson")
+            .map_or(defaults::NLGS_ANDERSON, |s| s.parse().expect("--anderson")),
+    };
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
-        child(
-            engine,
-            n,
-            seed,
-            budget,
-            step,
-            (relax, anderson, check_every),
-        );
+        child(engine, n, seed, budget, step, nlgs);
         return;
     }
     let sizes: Vec<usize> = arg(&args, "--sizes")
@@ -484,8 +476,11 @@ fn main() {
     let exe = std::env::current_exe().expect("own path");
     println!(
         "deposit benchmark: seed {seed}, {runs} run(s) each, budget {budget} s, {} rayon threads, \
-         softgrain NLGS relaxation {relax}",
-        rayon::current_num_threads()
+         softgrain NLGS relaxation {}, Anderson depth {}, check every {} sweeps",
+        rayon::current_num_threads(),
+        nlgs.relax,
+        nlgs.anderson,
+        nlgs.check_every,
     );
     let mut table = Vec::new();
     for &n in &sizes {
@@ -502,7 +497,9 @@ fn main() {
                     .args(["--child", engine, &n.to_string()])
                     .args(["--seed", &seed.to_string(), "--budget", &budget.to_string()])
                     .args(["--step", &step.to_string()])
-                    .args(["--relaxation", &relax.to_string()])
+                    .args(["--relaxation", &nlgs.relax.to_string()])
+                    .args(["--anderson", &nlgs.anderson.to_string()])
+                    .args(["--check-every", &nlgs.check_every.to_string()])
                     .stderr(std::process::Stdio::inherit())
                     .output()
                     .expect("child run");
