@@ -13,8 +13,9 @@
 //!
 //! Usage: `cargo bench --bench deposit -- [--sizes 300,30000] [--runs 3]
 //! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]
-//! [--relaxation 1] [--anderson 0] [--check-every 10]` (softgrain's NLGS: relaxation ω,
-//! `solver.relaxation`; Anderson depth, `solver.anderson`; sweeps between checks)
+//! [--tolerance 1.666e-4] [--relaxation 1] [--anderson 0] [--check-every 10]` (softgrain's
+//! NLGS: tolerance, `solver.tolerance`; relaxation ω, `solver.relaxation`; Anderson depth,
+//! `solver.anderson`; sweeps between checks)
 
 use rapier2d::prelude::*;
 use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
@@ -443,9 +444,12 @@ fn main() {
     // Time step of both engines in units of sqrt(<d>/g); the prepare stage's default unless set.
     let step: f64 =
         arg(&args, "--step").map_or(defaults::DEPOSIT_STEP, |s| s.parse().expect("--step"));
-    // softgrain's NLGS: the defaults, with ω, Anderson's depth and the check interval settable
+    // softgrain's NLGS: the defaults, with the tolerance, ω, Anderson's depth and the check
+    // interval settable
     let nlgs = NlgsParams {
-        tol: defaults::NLGS_TOLERANCE,
+        tol: arg(&args, "--tolerance").map_or(defaults::NLGS_TOLERANCE, |s| {
+            s.parse().expect("--tolerance")
+        }),
         check_every: arg(&args, "--check-every").map_or(defaults::NLGS_CHECK_EVERY, |s| {
             s.parse().expect("--check-every")
         }),
@@ -497,6 +501,7 @@ fn main() {
                     .args(["--child", engine, &n.to_string()])
                     .args(["--seed", &seed.to_string(), "--budget", &budget.to_string()])
                     .args(["--step", &step.to_string()])
+                    .args(["--tolerance", &nlgs.tol.to_string()])
                     .args(["--relaxation", &nlgs.relax.to_string()])
                     .args(["--anderson", &nlgs.anderson.to_string()])
                     .args(["--check-every", &nlgs.check_every.to_string()])

@@ -16,6 +16,7 @@
 /// The history and the block's starting impulses. Vectors are indexed by slot: the
 /// contact of solve position `s` (its index k mapped through `slot`) owns entries 2s, 2s + 1
 /// (p_n, p_t), so the shuffles between blocks do not matter.
+#[derive(Clone, Debug, Default)]
 pub struct Anderson {
     depth: usize,
     /// Slot of contact k (`u32::MAX` for contacts not in the solve).
@@ -37,33 +38,49 @@ pub struct Anderson {
     gram: std::collections::VecDeque<std::collections::VecDeque<f64>>,
     /// The accelerated iterate, by slot.
     next: Vec<f64>,
+    /// Columns dropped by a restart or a `reset`, reused before allocating new ones.
+    spare: Vec<Vec<f64>>,
 }
 
 impl Anderson {
-    /// `rows`: the contacts in the solve, as (k, W_nn, W_tt).
-    pub fn new(depth: usize, n_contacts: usize, rows: &[(usize, f64, f64)]) -> Self {
-        let mut slot = vec![u32::MAX; n_contacts];
-        let mut weight = Vec::with_capacity(2 * rows.len());
-        for (s, &(k, w_nn, w_tt)) in rows.iter().enumerate() {
-            slot[k] = s as u32;
-            weight.extend([w_nn, w_tt]);
+    /// Starts a new solve with an empty history, keeping the buffers' memory (the scene
+    /// keeps one `Anderson` from step to step). `rows`: the contacts in the solve, as
+    /// (k, W_nn, W_tt).
+    pub fn reset(
+        &mut self,
+        depth: usize,
+        n_contacts: usize,
+        rows: impl Iterator<Item = (usize, f64, f64)>,
+    ) {
+        self.depth = depth;
+        self.slot.clear();
+        self.slot.resize(n_contacts, u32::MAX);
+        self.weight.clear();
+        for (s, (k, w_nn, w_tt)) in rows.enumerate() {
+            self.slot[k] = s as u32;
+            self.weight.extend([w_nn, w_tt]);
         }
-        let zeros = vec![0.0; 2 * rows.len()];
-        Anderson {
-            depth,
-            slot,
-            weight,
-            start: zeros.clone(),
-            g: zeros.clone(),
-            f: zeros.clone(),
-            prev_g: zeros.clone(),
-            prev_f: zeros.clone(),
-            prev_norm: None,
-            dg: Default::default(),
-            df: Default::default(),
-            gram: Default::default(),
-            next: zeros,
+        let n = self.weight.len();
+        for v in [
+            &mut self.start,
+            &mut self.g,
+            &mut self.f,
+            &mut self.prev_g,
+            &mut self.prev_f,
+            &mut self.next,
+        ] {
+            v.clear();
+            v.resize(n, 0.0);
         }
+        self.prev_norm = None;
+        self.forget();
+    }
+
+    /// Empties the history, keeping its columns for reuse.
+    fn forget(&mut self) {
+        self.spare
+            .extend(self.dg.drain(..).chain(self.df.drain(..)));
+        self.gram.clear();
     }
 
     fn gather(slot: &[u32], out: &mut [f64], impulses: impl Iterator<Item = (usize, f64, f64)>) {
@@ -94,11 +111,7 @@ impl Anderson {
         }
         match self.prev_norm {
             // the residual grew: the statuses changed, the old directions no longer apply
-            Some(prev) if norm > prev => {
-                self.dg.clear();
-                self.df.clear();
-                self.gram.clear();
-            }
+            Some(prev) if norm > prev => self.forget(),
             Some(_) => {
                 let (mut dg, mut df) = if self.dg.len() == self.depth {
                     self.gram.pop_front();
@@ -110,7 +123,14 @@ impl Anderson {
                         self.df.pop_front().expect("full"),
                     )
                 } else {
-                    (vec![0.0; self.g.len()], vec![0.0; self.g.len()])
+                    // every entry is written below
+                    let n = self.g.len();
+                    let mut column = || {
+                        let mut v = self.spare.pop().unwrap_or_default();
+                        v.resize(n, 0.0);
+                        v
+                    };
+                    (column(), column())
                 };
                 for i in 0..self.g.len() {
                     dg[i] = self.g[i] - self.prev_g[i];
@@ -202,7 +222,8 @@ mod tests {
         for _ in 0..20 {
             plain = g(&plain);
         }
-        let mut aa = Anderson::new(2, 1, &[(0, 1.0, 1.0)]);
+        let mut aa = Anderson::default();
+        aa.reset(2, 1, std::iter::once((0, 1.0, 1.0)));
         let mut x = [0.0, 0.0];
         for _ in 0..20 {
             aa.begin(std::iter::once((0, x[0], x[1])));

@@ -295,6 +295,15 @@ pub const COLOURED_MIN: usize = 32768;
 /// keeps the sums' rounding independent of the thread count).
 const CHUNK: usize = 1024;
 
+/// The solve's working arrays, kept by the scene from step to step so that a step
+/// allocates none of them (their contents are rebuilt by every solve).
+#[derive(Clone, Debug, Default)]
+pub struct Scratch {
+    dofs: Vec<Dof>,
+    rows: Vec<Row>,
+    anderson: Anderson,
+}
+
 /// Solves for the impulses of the contacts listed in `order` (the others keep theirs),
 /// sweeping them in an order shuffled before each check block (coloured: once per step).
 pub fn solve<L: InteractionLaw>(
@@ -304,6 +313,7 @@ pub fn solve<L: InteractionLaw>(
     params: &NlgsParams,
     order: &mut [u32],
     rng: &mut Rng,
+    scratch: &mut Scratch,
 ) -> NlgsReport {
     let mut report = NlgsReport::default();
     if order.is_empty() {
@@ -311,46 +321,51 @@ pub fn solve<L: InteractionLaw>(
         return report;
     }
     let nb = b.len() as u32;
-    let mut dofs: Vec<Dof> = (0..b.len())
-        .map(|i| Dof {
-            v: b.vel[i],
-            w: b.omega[i],
-            im: b.inv_mass[i],
-            ir: b.inv_inertia[i] * b.radius[i],
-            r: b.radius[i],
-        })
-        .chain(data.wall_vel.iter().map(|&v| Dof {
-            v,
-            w: 0.0,
-            im: 0.0,
-            ir: 0.0,
-            r: 0.0,
-        }))
-        .collect();
-    let mut rows: Vec<Row> = order
-        .iter()
-        .map(|&k| {
-            let c = &contacts[k as usize];
-            Row {
-                i: c.i,
-                j: match c.j {
-                    Partner::Body(j) => j,
-                    Partner::Wall(w) => nb + w,
-                },
-                k,
-                law: c.law,
-                frictional: !data.skip_frictionless || data.laws.get(c.law).friction() > 0.0,
-                rolling: data.laws.get(c.law).rolling() > 0.0,
-                n: c.n,
-                shift: c.gap.max(0.0) * data.gap_rate,
-                w_nn: c.w_nn,
-                w_tt: c.w_tt,
-                p_n: c.p_n,
-                p_t: c.p_t,
-                p_r: c.p_r,
-            }
-        })
-        .collect();
+    let Scratch {
+        dofs,
+        rows,
+        anderson,
+    } = scratch;
+    dofs.clear();
+    dofs.extend(
+        (0..b.len())
+            .map(|i| Dof {
+                v: b.vel[i],
+                w: b.omega[i],
+                im: b.inv_mass[i],
+                ir: b.inv_inertia[i] * b.radius[i],
+                r: b.radius[i],
+            })
+            .chain(data.wall_vel.iter().map(|&v| Dof {
+                v,
+                w: 0.0,
+                im: 0.0,
+                ir: 0.0,
+                r: 0.0,
+            })),
+    );
+    rows.clear();
+    rows.extend(order.iter().map(|&k| {
+        let c = &contacts[k as usize];
+        Row {
+            i: c.i,
+            j: match c.j {
+                Partner::Body(j) => j,
+                Partner::Wall(w) => nb + w,
+            },
+            k,
+            law: c.law,
+            frictional: !data.skip_frictionless || data.laws.get(c.law).friction() > 0.0,
+            rolling: data.laws.get(c.law).rolling() > 0.0,
+            n: c.n,
+            shift: c.gap.max(0.0) * data.gap_rate,
+            w_nn: c.w_nn,
+            w_tt: c.w_tt,
+            p_n: c.p_n,
+            p_t: c.p_t,
+            p_r: c.p_r,
+        }
+    }));
     let coloured = rows.len() >= COLOURED_MIN;
     let mut colouring = Colouring::default();
     let sweep = Sweep {
@@ -362,11 +377,9 @@ pub fn solve<L: InteractionLaw>(
     // Rolling resistance's third impulse is left out of the accelerated vector, so the
     // acceleration is used only without it.
     let mut anderson = (params.anderson > 0 && !rows.iter().any(|r| r.rolling)).then(|| {
-        let slots: Vec<(usize, f64, f64)> = rows
-            .iter()
-            .map(|r| (r.k as usize, r.w_nn, r.w_tt))
-            .collect();
-        Anderson::new(params.anderson as usize, contacts.len(), &slots)
+        let slots = rows.iter().map(|r| (r.k as usize, r.w_nn, r.w_tt));
+        anderson.reset(params.anderson as usize, contacts.len(), slots);
+        anderson
     });
     let mut first = true;
     loop {
@@ -377,16 +390,16 @@ pub fn solve<L: InteractionLaw>(
         // the sweep's reads of the rows sequential. The coloured sweep shuffles and colours
         // once per step: for 10⁵ contacts both cost more than the sweeps they would reorder.
         if !coloured || first {
-            rng.shuffle(&mut rows);
+            rng.shuffle(rows);
             if coloured {
-                colouring.sort(&mut rows, b.len());
+                colouring.sort(rows, b.len());
             }
         }
         first = false;
         let sweeps = params.check_every.max(1);
         for _ in 1..sweeps {
             if coloured {
-                colouring.sweep(&mut rows, sweep);
+                colouring.sweep(rows, sweep);
             } else {
                 for r in rows.iter_mut() {
                     // SAFETY: one thread; every index is within `dofs`.
@@ -395,7 +408,7 @@ pub fn solve<L: InteractionLaw>(
             }
         }
         let norms = if coloured {
-            colouring.check_sweep(&mut rows, sweep)
+            colouring.check_sweep(rows, sweep)
         } else {
             let mut norms = Norms::default();
             for r in rows.iter_mut() {
@@ -425,7 +438,7 @@ pub fn solve<L: InteractionLaw>(
             }
         }
     }
-    for (slot, r) in order.iter_mut().zip(&rows) {
+    for (slot, r) in order.iter_mut().zip(rows.iter()) {
         *slot = r.k;
         let c = &mut contacts[r.k as usize];
         c.p_n = r.p_n;

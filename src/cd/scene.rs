@@ -1,15 +1,11 @@
 use super::detect::Neighbours;
 use super::guard::EnergyGuard;
 use super::nlgs::{self, NlgsParams, NlgsReport};
-use super::{Bodies, Contact, InteractionLaw, LawTable, Partner};
+use super::{Bodies, Contact, InteractionLaw, LawTable, PAR_MIN, Partner};
 use crate::geom::{V2, Wall};
 use crate::rng::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-
-/// Smallest chunk of work handed to a rayon thread: below it, splitting costs more than it
-/// saves (a single BPM grain steps in well under a millisecond).
-const PAR_MIN: usize = 4096;
 
 /// Time-stepping settings of the contact-dynamics engine.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -98,6 +94,8 @@ pub struct Scene<L> {
     #[serde(skip)]
     in_solve: Vec<bool>,
     #[serde(skip)]
+    scratch: nlgs::Scratch,
+    #[serde(skip)]
     pub(super) energy: EnergyGuard,
 }
 
@@ -123,6 +121,7 @@ impl<L: InteractionLaw> Scene<L> {
             neighbours: Neighbours::default(),
             order: Vec::new(),
             in_solve: Vec::new(),
+            scratch: nlgs::Scratch::default(),
             energy: EnergyGuard::default(),
         }
     }
@@ -144,13 +143,14 @@ impl<L: InteractionLaw> Scene<L> {
         };
         // Every pair that can close within the step must be seen: the alert distance grows
         // to twice the largest approach in one step (METHODS.md §1.7).
-        let v_max = self
-            .bodies
-            .vel
-            .par_iter()
-            .with_min_len(PAR_MIN)
-            .map(|v| v.norm())
-            .reduce(|| 0.0, f64::max);
+        let vel = &self.bodies.vel;
+        let v_max = if vel.len() < PAR_MIN {
+            vel.iter().map(|v| v.norm()).fold(0.0, f64::max)
+        } else {
+            (vel.par_iter().with_min_len(PAR_MIN))
+                .map(|v| v.norm())
+                .reduce(|| 0.0, f64::max)
+        };
         let w_max = self
             .walls
             .iter()
@@ -170,7 +170,6 @@ impl<L: InteractionLaw> Scene<L> {
         self.neighbours
             .update(&pos_tt, &self.bodies.radius, range, skin);
         let mut contacts = self.detect(&pos_tt, pred, alert);
-        contacts.sort_unstable_by_key(Contact::key);
         if shortcuts.warm_start {
             warm_start(&mut contacts, &self.contacts);
         }
@@ -228,6 +227,7 @@ impl<L: InteractionLaw> Scene<L> {
                 &self.params.nlgs,
                 &mut self.order,
                 &mut self.rng,
+                &mut self.scratch,
             );
             updates += u64::from(r.iterations) * self.order.len() as u64;
             report.iterations += r.iterations;
@@ -365,64 +365,77 @@ impl<L: InteractionLaw> Scene<L> {
     fn detect(&self, pos: &[V2], pred: f64, alert: f64) -> Vec<Contact> {
         let b = &self.bodies;
         let laws = &self.laws;
-        let pairs = self
-            .neighbours
-            .pairs
-            .par_iter()
-            .with_min_len(PAR_MIN)
-            .filter_map(|&(i, j)| {
-                let (iu, ju) = (i as usize, j as usize);
-                let d = pos[iu] - pos[ju];
-                let dist = d.norm();
-                let a0 = b.radius[iu] + b.radius[ju];
-                let gap = dist - a0;
-                let law = if b.group[iu] == b.group[ju] {
-                    LawTable::<L>::SAME_GROUP
-                } else {
-                    LawTable::<L>::OTHER_GROUP
-                };
-                if gap > alert.max(laws.get(law).range(a0)) {
-                    return None;
-                }
-                let (mi, mj) = (b.inv_mass[iu], b.inv_mass[ju]);
-                let (ri, rj) = (b.radius[iu], b.radius[ju]);
-                Some(Contact {
-                    i,
-                    j: Partner::Body(j),
-                    law,
-                    n: d / dist,
-                    gap,
-                    w_nn: mi + mj,
-                    w_tt: mi + mj + ri * ri * b.inv_inertia[iu] + rj * rj * b.inv_inertia[ju],
-                    p_n: 0.0,
-                    p_t: 0.0,
-                    p_r: 0.0,
+        let pair = |&(i, j): &(u32, u32)| {
+            let (iu, ju) = (i as usize, j as usize);
+            let d = pos[iu] - pos[ju];
+            let dist = d.norm();
+            let a0 = b.radius[iu] + b.radius[ju];
+            let gap = dist - a0;
+            let law = if b.group[iu] == b.group[ju] {
+                LawTable::<L>::SAME_GROUP
+            } else {
+                LawTable::<L>::OTHER_GROUP
+            };
+            if gap > alert.max(laws.get(law).range(a0)) {
+                return None;
+            }
+            let (mi, mj) = (b.inv_mass[iu], b.inv_mass[ju]);
+            let (ri, rj) = (b.radius[iu], b.radius[ju]);
+            Some(Contact {
+                i,
+                j: Partner::Body(j),
+                law,
+                n: d / dist,
+                gap,
+                w_nn: mi + mj,
+                w_tt: mi + mj + ri * ri * b.inv_inertia[iu] + rj * rj * b.inv_inertia[ju],
+                p_n: 0.0,
+                p_t: 0.0,
+                p_r: 0.0,
+            })
+        };
+        let wall = |i: usize| {
+            self.walls.iter().enumerate().filter_map(move |(w, wall)| {
+                let (gap, n) = wall.gap(pred * wall.velocity, pos[i], b.radius[i])?;
+                (gap <= alert).then(|| {
+                    let (mi, ri) = (b.inv_mass[i], b.radius[i]);
+                    Contact {
+                        i: i as u32,
+                        j: Partner::Wall(w as u32),
+                        law: LawTable::<L>::wall_law(w),
+                        n,
+                        gap,
+                        w_nn: mi,
+                        w_tt: mi + ri * ri * b.inv_inertia[i],
+                        p_n: 0.0,
+                        p_t: 0.0,
+                        p_r: 0.0,
+                    }
                 })
-            });
-        let walls = (0..b.len())
-            .into_par_iter()
-            .with_min_len(PAR_MIN)
-            .flat_map_iter(|i| {
-                self.walls.iter().enumerate().filter_map(move |(w, wall)| {
-                    let (gap, n) = wall.gap(pred * wall.velocity, pos[i], b.radius[i])?;
-                    (gap <= alert).then(|| {
-                        let (mi, ri) = (b.inv_mass[i], b.radius[i]);
-                        Contact {
-                            i: i as u32,
-                            j: Partner::Wall(w as u32),
-                            law: LawTable::<L>::wall_law(w),
-                            n,
-                            gap,
-                            w_nn: mi,
-                            w_tt: mi + ri * ri * b.inv_inertia[i],
-                            p_n: 0.0,
-                            p_t: 0.0,
-                            p_r: 0.0,
-                        }
-                    })
-                })
-            });
-        pairs.chain(walls).collect()
+            })
+        };
+        // Both lists come out sorted by key (the pair list is sorted, the walls go by disk),
+        // so merging them gives the step's contact order without a sort.
+        let pairs = &self.neighbours.pairs;
+        let (disks, walls): (Vec<Contact>, Vec<Contact>) = if pairs.len().max(b.len()) < PAR_MIN {
+            let disks = pairs.iter().filter_map(pair).collect();
+            (disks, (0..b.len()).flat_map(wall).collect())
+        } else {
+            let disks = (pairs.par_iter().with_min_len(PAR_MIN)).filter_map(pair);
+            let walls = (0..b.len()).into_par_iter().with_min_len(PAR_MIN);
+            (disks.collect(), walls.flat_map_iter(wall).collect())
+        };
+        let mut contacts = Vec::with_capacity(disks.len() + walls.len());
+        let mut walls = walls.into_iter().peekable();
+        for c in disks {
+            while let Some(w) = walls.next_if(|w| w.key() < c.key()) {
+                contacts.push(w);
+            }
+            contacts.push(c);
+        }
+        contacts.extend(walls);
+        debug_assert!(contacts.is_sorted_by_key(Contact::key));
+        contacts
     }
 
     /// Current gap of each stored contact (after the step's position update).
