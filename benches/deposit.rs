@@ -3,19 +3,20 @@
 //! Both engines start from the same disks (sizes, positions) as the prepare stage
 //! (`src/stages/prepare.rs::start`): diameters in [1.4, 2.4] mm equal-area-per-size, a loose
 //! lattice layout, an open box about as high as wide, density 990 kg/m³ per unit thickness,
-//! friction 0.3 between disks, frictionless walls, g = 9.81 m/s². Each runs until the
-//! prepare stage's rest test holds (translational kinetic energy / (Σ m g <d>) < 1e-9,
-//! checked once the fall time sqrt(2·2H/g) has passed) or the simulated time reaches
-//! `MAX_TIME`, or a wall-clock budget runs out.
+//! friction 0.3 between disks, frictionless walls (`--wall-friction`), g = 9.81 m/s². Each
+//! runs until the prepare stage's rest test holds (translational kinetic energy /
+//! (Σ m g <d>) < 1e-9, checked once the fall time sqrt(2·2H/g) has passed) or the simulated
+//! time reaches `MAX_TIME`, or a wall-clock budget runs out.
 //!
 //! Every (engine, size, run) goes to a child process (this binary re-executed with
 //! `--child`) so that its peak resident memory (VmHWM) is its own.
 //!
 //! Usage: `cargo bench --bench deposit -- [--sizes 300,30000] [--runs 3]
 //! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]
-//! [--tolerance 1.666e-4] [--relaxation 1] [--anderson 0] [--check-every 10]` (softgrain's
-//! NLGS: tolerance, `solver.tolerance`; relaxation ω, `solver.relaxation`; Anderson depth,
-//! `solver.anderson`; sweeps between checks)
+//! [--wall-friction 0] [--tolerance 1.666e-4] [--relaxation 1] [--anderson 0]
+//! [--check-every 10]` (disk-wall friction of both engines, `prepare.wall_friction`;
+//! softgrain's NLGS: tolerance, `solver.tolerance`; relaxation ω, `solver.relaxation`;
+//! Anderson depth, `solver.anderson`; sweeps between checks)
 
 use rapier2d::prelude::*;
 use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
@@ -37,9 +38,11 @@ struct Setup {
     settle_after: f64,
     dt: f64,
     d_mean: f64,
+    /// Disk-wall friction of both engines (`prepare.wall_friction`; 0 by default).
+    wall_friction: f64,
 }
 
-fn setup(n: usize, seed: u64, step: f64) -> Setup {
+fn setup(n: usize, seed: u64, step: f64, wall_friction: f64) -> Setup {
     let mut rng = Rng::stream(seed, "prepare-sizes");
     let d = packing::diameters(DISTRIBUTION, DIAMETER, n, &mut rng);
     let width = packing::square_box_width(DISTRIBUTION, DIAMETER, n, defaults::SQUARE_BOX_PHI);
@@ -54,6 +57,7 @@ fn setup(n: usize, seed: u64, step: f64) -> Setup {
         settle_after: (2.0 * height / defaults::GRAVITY).sqrt(),
         dt: step * (d_mean / defaults::GRAVITY).sqrt(),
         d_mean,
+        wall_friction,
     }
 }
 
@@ -158,7 +162,7 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) -> Outcome
     };
     let wall_laws = vec![
         Coulomb {
-            mu: defaults::WALL_FRICTION
+            mu: s.wall_friction
         };
         s.walls.len()
     ];
@@ -273,7 +277,7 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
             colliders.insert(
                 ColliderBuilder::cuboid(hx as Real, hy as Real)
                     .translation(Vector::new(cx as Real, cy as Real))
-                    .friction(defaults::WALL_FRICTION as Real)
+                    .friction(s.wall_friction as Real)
                     .friction_combine_rule(CoefficientCombineRule::Min)
                     .user_data(u128::MAX - k as u128),
             ),
@@ -408,13 +412,12 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, n: usize, seed: u64, budget: f64, step: f64, nlgs: NlgsParams) {
-    let s = setup(n, seed, step);
+fn child(engine: &str, n: usize, s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) {
     let mut out = match engine {
-        "softgrain" => run_softgrain(&s, seed, budget, nlgs),
-        "rapier" => run_rapier(&s, budget, false),
-        "rapier-froude" => run_rapier(&s, budget, true),
-        _ => panic!("unknown engine {engine}"),
+        "softgrain" => run_softgrain(s, seed, budget, nlgs),
+        "rapier" => run_rapier(s, budget, false),
+        "rapier-froude" => run_rapier(s, budget, true),
+        _ => panic!("unknown engine {engine} ({n} disks)"),
     };
     out.peak_rss_kib = peak_rss_kib();
     println!("{}", out.line());
@@ -444,6 +447,9 @@ fn main() {
     // Time step of both engines in units of sqrt(<d>/g); the prepare stage's default unless set.
     let step: f64 =
         arg(&args, "--step").map_or(defaults::DEPOSIT_STEP, |s| s.parse().expect("--step"));
+    let wall_friction: f64 = arg(&args, "--wall-friction").map_or(defaults::WALL_FRICTION, |s| {
+        s.parse().expect("--wall-friction")
+    });
     // softgrain's NLGS: the defaults, with the tolerance, ω, Anderson's depth and the check
     // interval settable
     let nlgs = NlgsParams {
@@ -463,7 +469,14 @@ fn main() {
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
-        child(engine, n, seed, budget, step, nlgs);
+        child(
+            engine,
+            n,
+            &setup(n, seed, step, wall_friction),
+            seed,
+            budget,
+            nlgs,
+        );
         return;
     }
     let sizes: Vec<usize> = arg(&args, "--sizes")
@@ -488,7 +501,7 @@ fn main() {
     );
     let mut table = Vec::new();
     for &n in &sizes {
-        let s = setup(n, seed, step);
+        let s = setup(n, seed, step, wall_friction);
         println!(
             "{n} disks: box width {:.4} m, h = {:.3e} s, rest test after {:.3} s",
             s.width, s.dt, s.settle_after
@@ -501,6 +514,7 @@ fn main() {
                     .args(["--child", engine, &n.to_string()])
                     .args(["--seed", &seed.to_string(), "--budget", &budget.to_string()])
                     .args(["--step", &step.to_string()])
+                    .args(["--wall-friction", &wall_friction.to_string()])
                     .args(["--tolerance", &nlgs.tol.to_string()])
                     .args(["--relaxation", &nlgs.relax.to_string()])
                     .args(["--anderson", &nlgs.anderson.to_string()])
