@@ -261,7 +261,7 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
     }
     // The open box: three fixed cuboids whose inner faces are our wall lines (floor y = 0,
     // left x = 0, right x = width), as long as our segments with their overhang. The Min
-    // combine rule makes disk-wall contacts frictionless (min(0.3, 0) = 0).
+    // combine rule gives disk-wall contacts min(0.3, wall friction): 0 by default.
     let t = DIAMETER[1];
     let top = s.walls[1].a.y;
     let o = DIAMETER[1];
