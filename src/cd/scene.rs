@@ -415,27 +415,20 @@ impl<L: InteractionLaw> Scene<L> {
             })
         };
         // Both lists come out sorted by key (the pair list is sorted, the walls go by disk),
-        // so merging them gives the step's contact order without a sort.
+        // so merging them gives the step's contact order without a sort. A small scene
+        // merges them as they are produced, into the one list it returns.
         let pairs = &self.neighbours.pairs;
-        let (disks, walls): (Vec<Contact>, Vec<Contact>) = if pairs.len().max(b.len()) < PAR_MIN {
-            let disks = pairs.iter().filter_map(pair).collect();
-            (disks, (0..b.len()).flat_map(wall).collect())
+        if pairs.len().max(b.len()) < PAR_MIN {
+            merge_sorted(pairs.iter().filter_map(pair), (0..b.len()).flat_map(wall))
         } else {
-            let disks = (pairs.par_iter().with_min_len(PAR_MIN)).filter_map(pair);
-            let walls = (0..b.len()).into_par_iter().with_min_len(PAR_MIN);
-            (disks.collect(), walls.flat_map_iter(wall).collect())
-        };
-        let mut contacts = Vec::with_capacity(disks.len() + walls.len());
-        let mut walls = walls.into_iter().peekable();
-        for c in disks {
-            while let Some(w) = walls.next_if(|w| w.key() < c.key()) {
-                contacts.push(w);
-            }
-            contacts.push(c);
+            let disks: Vec<Contact> = (pairs.par_iter().with_min_len(PAR_MIN))
+                .filter_map(pair)
+                .collect();
+            let walls: Vec<Contact> = ((0..b.len()).into_par_iter().with_min_len(PAR_MIN))
+                .flat_map_iter(wall)
+                .collect();
+            merge_sorted(disks.into_iter(), walls.into_iter())
         }
-        contacts.extend(walls);
-        debug_assert!(contacts.is_sorted_by_key(Contact::key));
-        contacts
     }
 
     /// Current gap of each stored contact (after the step's position update).
@@ -457,6 +450,24 @@ impl<L: InteractionLaw> Scene<L> {
             })
             .collect()
     }
+}
+
+/// One list sorted by key from two sorted by key (contact keys are unique).
+fn merge_sorted(
+    disks: impl Iterator<Item = Contact>,
+    walls: impl Iterator<Item = Contact>,
+) -> Vec<Contact> {
+    let mut contacts = Vec::new();
+    let mut walls = walls.peekable();
+    for c in disks {
+        while let Some(w) = walls.next_if(|w| w.key() < c.key()) {
+            contacts.push(w);
+        }
+        contacts.push(c);
+    }
+    contacts.extend(walls);
+    debug_assert!(contacts.is_sorted_by_key(Contact::key));
+    contacts
 }
 
 /// Copies each previous impulse onto the new contact with the same key (both lists sorted).
