@@ -78,23 +78,61 @@ pub struct Row {
     /// Mean solver iterations per step over the interval (NLGS sweeps, or contact-coupling
     /// iterations for MPM).
     pub iterations: f64,
-    /// Kinetic energy over the work the top wall has done since ε = 0 (quasi-static: ≪ 1;
-    /// NaN before the wall has done any work).
+    /// Kinetic energy over a reference energy (quasi-static: ≪ 1). BPM: the work the walls
+    /// have done since ε = 0 (NaN before they have done any); MPM: the grains' elastic
+    /// energy.
     pub kinetic_ratio: f64,
     /// Worst interpenetration between grains (BPM: particle overlap over the smallest particle
     /// diameter; MPM: node gap over the cell size), ≥ 0.
     pub overlap: f64,
+    /// Inertial number I = ε̇ d sqrt(ρ/p) (`inertial_number`): the time to rearrange a grain
+    /// under the confining pressure over the time the wall takes to strain the packing.
+    /// Quasi-static flow has I ≲ 1e-3 (GDR MiDi 2004). NaN while the walls carry no load.
+    pub inertial: f64,
+}
+
+impl Row {
+    /// Mean of the four wall stresses: the pressure of the packing as the walls see it.
+    pub fn pressure(&self) -> f64 {
+        0.25 * (self.sigma + self.sigma_top + self.sigma_left + self.sigma_right)
+    }
+}
+
+/// The grains' mean size and density for the inertial number, fixed at ε = 0: the diameter
+/// of the disk of the mean grain area, sqrt(4 A / (π N)), and mass over area, M / A.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GrainScale {
+    pub diameter: f64,
+    pub density: f64,
+}
+
+impl GrainScale {
+    pub fn new(grains: usize, area: f64, mass: f64) -> Self {
+        GrainScale {
+            diameter: (4.0 * area / (std::f64::consts::PI * grains as f64)).sqrt(),
+            density: mass / area,
+        }
+    }
+
+    /// I = ε̇ d sqrt(ρ/p) at strain rate ε̇ and pressure p; NaN for p ≤ 0.
+    pub fn inertial_number(&self, strain_rate: f64, pressure: f64) -> f64 {
+        if pressure > 0.0 {
+            strain_rate * self.diameter * (self.density / pressure).sqrt()
+        } else {
+            f64::NAN
+        }
+    }
 }
 
 /// The time series as CSV, the contract's `time,strain,phi,z,sigma` first.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap\n",
+        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.time,
             r.strain,
             r.phi,
@@ -108,20 +146,21 @@ pub fn csv(rows: &[Row]) -> String {
             r.rattlers,
             r.iterations,
             r.kinetic_ratio,
-            r.overlap
+            r.overlap,
+            r.inertial
         );
     }
     s
 }
 
-/// Largest kinetic-to-work ratio once the packing carries load: over the rows whose floor
-/// stress is at least a tenth of the run's largest. Before that the grains are a gas pushed by
-/// the wall, with a kinetic energy of the order of the work done (nothing to check).
-pub fn kinetic_ratio_after_jamming(rows: &[Row]) -> f64 {
+/// Largest value of `f` once the packing carries load: over the rows whose floor stress is
+/// at least a tenth of the run's largest. Before that the grains are a gas pushed by the
+/// wall, with a kinetic energy of the order of the work done (nothing to check).
+pub fn max_after_jamming(rows: &[Row], f: impl Fn(&Row) -> f64) -> f64 {
     let top = rows.iter().map(|r| r.sigma).fold(0.0, f64::max);
     rows.iter()
         .filter(|r| r.sigma >= 0.1 * top && top > 0.0)
-        .map(|r| r.kinetic_ratio)
+        .map(f)
         .filter(|x| x.is_finite())
         .fold(0.0, f64::max)
 }
@@ -179,8 +218,11 @@ pub struct PackingFigures {
     /// MPM: relative change of the total point mass at the end (the points carry the mass,
     /// so it must be 0). BPM: None (rigid particles of fixed mass).
     pub mass_change: Option<f64>,
-    /// Largest `Row::kinetic_ratio` once loaded (`kinetic_ratio_after_jamming`).
+    /// Largest `Row::kinetic_ratio` once loaded (BPM: `max_after_jamming`; MPM: once the
+    /// top wall has touched a grain).
     pub kinetic_ratio_max: f64,
+    /// Largest `Row::inertial` once loaded (`max_after_jamming`).
+    pub inertial_max: f64,
 }
 
 /// Grain coordination from the list of grain pairs in contact (each pair once, any order,
@@ -276,6 +318,28 @@ mod tests {
             }
         }
         p
+    }
+
+    #[test]
+    fn inertial_number_of_disks_of_known_size_and_density() {
+        // 10 disks of diameter 2 mm and density 1000 kg/m³
+        let (n, d, rho) = (10, 2e-3, 1000.0);
+        let area = n as f64 * std::f64::consts::PI * d * d / 4.0;
+        let s = GrainScale::new(n, area, rho * area);
+        assert!((s.diameter - d).abs() < 1e-15 && (s.density - rho).abs() < 1e-9);
+        // ε̇ = 5 /s under p = 10 kPa: I = 5 · 2e-3 · sqrt(1000 / 1e4)
+        let row = Row {
+            sigma: 1.2e4,
+            sigma_top: 1.0e4,
+            sigma_left: 0.9e4,
+            sigma_right: 0.9e4,
+            ..Default::default()
+        };
+        assert!((row.pressure() - 1e4).abs() < 1e-9);
+        let i = s.inertial_number(5.0, row.pressure());
+        assert!((i - 1e-2 * 0.1f64.sqrt()).abs() < 1e-15, "I = {i}");
+        // undefined before the walls carry load
+        assert!(s.inertial_number(5.0, 0.0).is_nan());
     }
 
     #[test]

@@ -14,7 +14,7 @@ pub fn method_name(m: Method) -> &'static str {
     }
 }
 
-/// A packing's rows: `case, method, friction, time, strain, phi, z, z_star, sigma`.
+/// A packing's rows: `case, method, friction, time, strain, phi, z, z_star, sigma, inertial`.
 pub fn packing(case: &str, c: &PackingCompacted) -> PolarsResult<DataFrame> {
     let n = c.rows.len();
     let get = |f: fn(&crate::compaction::Row) -> f64| c.rows.iter().map(f).collect::<Vec<f64>>();
@@ -28,6 +28,7 @@ pub fn packing(case: &str, c: &PackingCompacted) -> PolarsResult<DataFrame> {
         "z" => get(|r| r.z),
         "z_star" => get(|r| r.z_star),
         "sigma" => get(|r| r.sigma),
+        "inertial" => get(|r| r.inertial),
     )
 }
 

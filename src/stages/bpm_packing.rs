@@ -15,6 +15,8 @@
 //!   toward holding a grain).
 //! * overlap: largest particle-particle overlap between different grains over d_min.
 //! * kinetic_ratio: kinetic energy over the work the walls have done so far.
+//! * inertial: I = ε̇ d sqrt(ρ/p) with the top wall's ε̇, the walls' mean stress p and the
+//!   grains' size and density at ε = 0 (`compaction::GrainScale`).
 
 use super::discretise::BpmGrains;
 use super::frames::FrameLog;
@@ -244,7 +246,9 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
     let min_contacts = if st.friction > 0.0 { 2 } else { 3 };
     let z = compaction::coordination(st.grains, &pairs, &wall_contacts, min_contacts);
     let kinetic = b.kinetic_energy();
-    let row = Row {
+    let scale = compaction::GrainScale::new(st.grains, st.area0, b.total_mass());
+    let strain_rate = -scene.walls[TOP].velocity.y / h;
+    let mut row = Row {
         time: scene.time,
         strain: (st.geometry.h0 / h).ln(),
         phi: area / (width * h),
@@ -264,7 +268,9 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
             f64::NAN
         },
         overlap: overlap.max(0.0),
+        inertial: f64::NAN,
     };
+    row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
     f.area_change = f.area_change.max((area / st.area0 - 1.0).abs());
@@ -283,7 +289,8 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
 fn finish(ctx: &StageCtx, st: Running) -> Result<(PackingCompacted, String), String> {
     let mut f = st.figures;
     f.iterations_mean /= f.steps.max(1) as f64;
-    f.kinetic_ratio_max = compaction::kinetic_ratio_after_jamming(&st.rows);
+    f.kinetic_ratio_max = compaction::max_after_jamming(&st.rows, |r| r.kinetic_ratio);
+    f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
     ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
         .map_err(|e| format!("writing output in {}: {e}", ctx.dir.display()))?;
     let b = &st.scene.bodies;

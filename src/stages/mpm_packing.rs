@@ -253,6 +253,7 @@ pub fn compact(
     f.iterations_mean =
         st.rows.iter().map(|r| r.iterations).sum::<f64>() / st.rows.len().max(1) as f64;
     f.mass_change = Some((st.pk.total_mass() - st.mass0).abs() / st.mass0);
+    f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
         "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.2} h_g, grain area within {:.2}%",
@@ -327,7 +328,9 @@ fn record(st: &mut Running, mu: f64) {
     );
     let (width, height) = (pk.width, pk.height());
     let ke = pk.kinetic_energy();
-    let row = Row {
+    let scale = compaction::GrainScale::new(pk.grains.len(), st.area0, st.mass0);
+    let strain_rate = pk.params.wall_velocity / height;
+    let mut row = Row {
         time: pk.time,
         strain: pk.strain(),
         phi: pk.phi(),
@@ -342,7 +345,9 @@ fn record(st: &mut Running, mu: f64) {
         iterations: st.iterations as f64 / n,
         kinetic_ratio: ke / (pk.elastic_energy() + 1e-30),
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
+        inertial: f64::NAN,
     };
+    row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
     f.area_change = f.area_change.max((pk.grain_area() / st.area0 - 1.0).abs());

@@ -55,8 +55,9 @@ for case in ("bpm-mu0", "bpm-mu0.5"):
     check(f"{case}: starts at Φ0 = 0.55", abs(float(rows[0]["phi"]) - 0.55) < 1e-9)
     last = rows[-1]
     check(f"{case}: reaches ε = 0.45 loaded", float(last["strain"]) >= 0.45 and float(last["sigma"]) > 0)
+    check(f"{case}: inertial number defined once loaded", 0 < float(last["inertial"]) < 1)
     net = pv.read(str(sorted(comp.glob("contacts_*.vtu"))[-1]))
     check(f"{case}: force network with normal_force", net.n_cells > 0 and float(np.max(net.cell_data["normal_force"])) > 0)
-    checks += 5
+    checks += 6
 print(f"{checks - len(failures)} passed, {len(failures)} failed")
 sys.exit(1 if failures else 0)
