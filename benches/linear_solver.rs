@@ -68,6 +68,7 @@ fn main() {
                 .expect("begin");
             s.evaluate_residual(params, material, &grain.points, grain.dt, 0)
                 .expect("residual");
+            s.assemble_stiffness(params, material, &grain.points, grain.dt);
             s
         };
         let solver = prepared();

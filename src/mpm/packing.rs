@@ -698,6 +698,7 @@ fn grain_free(
     }
     let mut new = 0;
     if !(converged && w.factored) {
+        w.solver.assemble_stiffness(&p.solver, &p.material, pts, dt);
         w.solver.factorize(&p.solver, &p.material, pts, dt, step)?;
         w.factored = true;
         new = 1;

@@ -113,12 +113,19 @@ pub struct Solver {
     tangent: Vec<Matrix3<f64>>,
     sys: SymSystem,
     pairs: Vec<(usize, usize)>,
+    /// For B-bar group `g` of `m` nodes, `grp_blk[grp_blk_off[g] + k m + l]`: the block
+    /// of node pair (k, l) in `sys` when node k ≥ node l, else `usize::MAX` (looked up once
+    /// per pattern instead of once per point in every assembly).
+    grp_blk: Vec<usize>,
+    grp_blk_off: Vec<usize>,
     contacts: Vec<NodeContact>,
     prev_active: Vec<(usize, usize)>,
     gap: Vec<f64>,
     dbk: Vec<Matrix3x2<f64>>,
     bk: Vec<Matrix3x2<f64>>,
     hk: Vec<Vector2<f64>>,
+    /// `σ ∇S` of the point being assembled, per group node.
+    sg: Vec<Vector2<f64>>,
 }
 
 fn vec2(u: &[f64], i: usize) -> Vector2<f64> {
@@ -194,7 +201,7 @@ impl Solver {
                     *u -= *d;
                 }
             }
-            self.assemble(points, material, c1, true);
+            self.internal_force(points);
             let scale0 = self.residual(nm, dt);
             changed = contact::update_active_set(
                 &mut self.contacts,
@@ -238,12 +245,13 @@ impl Solver {
             if it == tol.max_iterations {
                 break;
             }
+            self.stiffness(points, material, c1, true);
             if self.solve_increment().is_err() {
                 // The geometric and stress-dependent parts of the tangent of a pre-stressed
                 // grain can make it indefinite (supports inactive, or stresses of order μ
                 // at large strain): retry this iteration with the initial elastic tangent
                 // (a modified Newton step).
-                self.assemble(points, material, c1, false);
+                self.stiffness(points, material, c1, false);
                 self.solve_increment()
                     .map_err(|reason| MpmError::LinearSolve { step, reason })?;
             }
@@ -289,7 +297,8 @@ impl Solver {
 
 /// The phases of one step, for a driver that couples several grains through their contact
 /// nodes (`super::packing`): `begin`, then per coupling iteration `evaluate_residual`,
-/// `factorize` and `solve`s with `add_increment`, and `finish` at convergence.
+/// `assemble_stiffness` and `factorize` (when the grain needs a new factorisation) and
+/// `solve`s with `add_increment`, and `finish` at convergence.
 impl Solver {
     /// P2G of `points` on `grid` (a window of the common grid), the sparsity pattern and
     /// the Newmark predictor.
@@ -322,13 +331,25 @@ impl Solver {
         step: u64,
     ) -> Result<f64, MpmError> {
         self.evaluate(params, material, points, step)?;
-        self.assemble(points, material, params.newmark.mass_factor(dt), true);
+        self.internal_force(points);
         Ok(self.residual(params.newmark, dt))
     }
 
-    /// Factorises the effective stiffness of the last `evaluate_residual`; if the
-    /// consistent tangent is not positive definite, the initial elastic one is used
-    /// (modified Newton, as in `step`).
+    /// Assembles the effective stiffness (consistent tangent) at the iterate of the last
+    /// `evaluate_residual`, for `factorize` or `solve_iterative`.
+    pub fn assemble_stiffness(
+        &mut self,
+        params: &SolverParams,
+        material: &Material,
+        points: &Points,
+        dt: f64,
+    ) {
+        self.stiffness(points, material, params.newmark.mass_factor(dt), true);
+    }
+
+    /// Factorises the stiffness of the last `assemble_stiffness`; if the consistent
+    /// tangent is not positive definite, the initial elastic one is assembled and used
+    /// instead (modified Newton, as in `step`).
     pub fn factorize(
         &mut self,
         params: &SolverParams,
@@ -339,7 +360,7 @@ impl Solver {
     ) -> Result<(), MpmError> {
         self.fixed.iter_mut().for_each(|f| *f = false);
         if self.sys.factorize(&self.fixed).is_err() {
-            self.assemble(points, material, params.newmark.mass_factor(dt), false);
+            self.stiffness(points, material, params.newmark.mass_factor(dt), false);
             self.sys
                 .factorize(&self.fixed)
                 .map_err(|reason| MpmError::LinearSolve { step, reason })?;
@@ -450,6 +471,21 @@ impl Solver {
             }
         }
         self.sys.set_pattern(n, &mut self.pairs);
+        self.grp_blk.clear();
+        self.grp_blk_off.clear();
+        for g in 0..self.conn.grp_off.len() - 1 {
+            self.grp_blk_off.push(self.grp_blk.len());
+            let nodes = &self.conn.grp_nodes[self.conn.grp_off[g]..self.conn.grp_off[g + 1]];
+            for &i in nodes {
+                for &j in nodes {
+                    self.grp_blk.push(if i >= j {
+                        self.sys.lower_block(i, j)
+                    } else {
+                        usize::MAX
+                    });
+                }
+            }
+        }
         for i in 0..n {
             let u0 = nm.predictor(self.vn[i], self.an[i], dt);
             self.u[2 * i] = u0.x;
@@ -597,59 +633,76 @@ impl Solver {
         Ok(())
     }
 
-    /// Internal force and effective stiffness `c1 M + Σ v (B̄ᵀ D B̄ + geometric)`; with
-    /// `consistent = false`, `D` is the initial elastic matrix and the geometric part is
-    /// left out, which is always positive definite.
-    fn assemble(&mut self, points: &Points, material: &Material, c1: f64, consistent: bool) {
-        let elastic = material.elastic_matrix();
+    /// B-bar operator `B̄` of group node `k` of point `p` and its `h = d̄ - ∇S` (both in the
+    /// start-of-step configuration, like the kinematics).
+    fn bbar(&self, p: usize, k: usize) -> (Matrix3x2<f64>, Vector2<f64>) {
+        let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+        let gk = self.pt_g[off + k];
+        let h = self.dbar0[self.conn.grp_off[g] + k] - self.conn.pt_g0[off + k];
+        let (hx, hy) = (0.5 * h.x, 0.5 * h.y);
+        (Matrix3x2::new(gk.x + hx, hy, hx, gk.y + hy, gk.y, gk.x), h)
+    }
+
+    /// Internal force at the current iterate, energy-consistent with B-bar:
+    /// `v (σ ΔF̄^{-T} ∇S^n + ½ tr(σ ΔF̄^{-T}) h)` at every group node of every point.
+    fn internal_force(&mut self, points: &Points) {
         self.fint.iter_mut().for_each(|f| *f = 0.0);
-        self.sys.zero();
         for p in 0..points.len() {
             let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
             let (a, b) = (self.conn.grp_off[g], self.conn.grp_off[g + 1]);
-            let v = self.trial_vol[p];
-            let sig = self.trial_stress[p];
-            let d = if consistent { self.tangent[p] } else { elastic };
-            let sm = sig.matrix();
-            self.bk.clear();
-            self.dbk.clear();
-            self.hk.clear();
+            let (v, sm) = (self.trial_vol[p], self.trial_stress[p].matrix());
             for k in 0..b - a {
-                let gk = self.pt_g[off + k];
-                // B-bar: the dilatation of the increment is the group average, taken in
-                // the start-of-step configuration like the kinematics (h = d̄ - ∇S there).
-                let h = self.dbar0[a + k] - self.conn.pt_g0[off + k];
-                let (hx, hy) = (0.5 * h.x, 0.5 * h.y);
-                let bm = Matrix3x2::new(gk.x + hx, hy, hx, gk.y + hy, gk.y, gk.x);
-                // Energy-consistent force v (σ ΔF̄^{-T} ∇S^n + ½ tr(σ ΔF̄^{-T}) h).
-                let f = (sm * gk + h * (0.5 * self.trial_tr[p])) * v;
+                let (_, h) = self.bbar(p, k);
+                let f = (sm * self.pt_g[off + k] + h * (0.5 * self.trial_tr[p])) * v;
                 let i = self.conn.grp_nodes[a + k];
                 self.fint[2 * i] += f.x;
                 self.fint[2 * i + 1] += f.y;
+            }
+        }
+    }
+
+    /// Effective stiffness `c1 M + Σ v (B̄ᵀ D B̄ + geometric)` at the current iterate; with
+    /// `consistent = false`, `D` is the initial elastic matrix and the geometric part is
+    /// left out, which is always positive definite. Only a step that solves needs it: a
+    /// converged iterate, or a grain the coupling leaves alone, skips it.
+    fn stiffness(&mut self, points: &Points, material: &Material, c1: f64, consistent: bool) {
+        let elastic = material.elastic_matrix();
+        self.sys.zero();
+        for p in 0..points.len() {
+            let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+            let m = self.conn.grp_off[g + 1] - self.conn.grp_off[g];
+            let v = self.trial_vol[p];
+            let d = if consistent { self.tangent[p] } else { elastic };
+            let sm = self.trial_stress[p].matrix();
+            self.bk.clear();
+            self.dbk.clear();
+            self.hk.clear();
+            self.sg.clear();
+            for k in 0..m {
+                let (bm, h) = self.bbar(p, k);
                 self.dbk.push(d * bm * v);
                 self.bk.push(bm);
                 self.hk.push(h);
+                self.sg.push(sm * self.pt_g[off + k]);
             }
-            for k in 0..b - a {
-                let i = self.conn.grp_nodes[a + k];
-                let gk = self.pt_g[off + k];
-                let (sgk, hk) = (sm * gk, self.hk[k]);
-                for l in 0..b - a {
-                    let j = self.conn.grp_nodes[a + l];
-                    if i < j {
+            let blk = &self.grp_blk[self.grp_blk_off[g]..][..m * m];
+            for k in 0..m {
+                let (gk, sgk, hk) = (self.pt_g[off + k], self.sg[k], self.hk[k]);
+                for l in 0..m {
+                    let block = blk[k * m + l];
+                    if block == usize::MAX {
                         continue;
                     }
                     let mut kij = self.bk[k].transpose() * self.dbk[l];
                     if consistent {
                         // Geometric stiffness tr(G_k σ G_lᵀ), G = e ⊗ ∇S + ½ (e·h) I.
-                        let (gl, hl) = (self.pt_g[off + l], self.hk[l]);
-                        let sgl = sm * gl;
+                        let (sgl, hl) = (self.sg[l], self.hk[l]);
                         kij += (Matrix2::identity() * gk.dot(&sgl)
                             + (sgk * hl.transpose() + hk * sgl.transpose()) * 0.5
                             + hk * hl.transpose() * (0.25 * sm.trace()))
                             * v;
                     }
-                    self.sys.add_lower(i, j, &kij);
+                    self.sys.add_block(block, &kij);
                 }
             }
         }

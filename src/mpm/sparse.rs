@@ -105,9 +105,14 @@ impl SymSystem {
                 .expect("pair outside the block pattern")
     }
 
-    /// Adds `k` to `K[2I.., 2J..]` for `I >= J` (the lower triangle; the caller skips `I < J`).
-    pub fn add_lower(&mut self, i: usize, j: usize, k: &Matrix2<f64>) {
-        let b = self.find(j, i);
+    /// Index of the block `K[2I.., 2J..]`, `I >= J` (the lower triangle), for `add_block`;
+    /// valid until the next `set_pattern`.
+    pub fn lower_block(&self, i: usize, j: usize) -> usize {
+        self.find(j, i)
+    }
+
+    /// Adds `k` to the block numbered `b` by `lower_block`.
+    pub fn add_block(&mut self, b: usize, k: &Matrix2<f64>) {
         self.blocks[b] += k;
     }
 
@@ -327,9 +332,9 @@ mod tests {
         assert!(s.new_symbolic);
         let k = Matrix2::new(2.0, 0.5, 0.5, 1.0);
         for (i, j) in [(0, 1), (1, 2)] {
-            s.add_lower(i, i, &k);
-            s.add_lower(j, j, &k);
-            s.add_lower(j, i, &(-k));
+            s.add_block(s.lower_block(i, i), &k);
+            s.add_block(s.lower_block(j, j), &k);
+            s.add_block(s.lower_block(j, i), &(-k));
         }
         for i in 0..3 {
             s.add_diag(i, 1.0);
