@@ -230,9 +230,13 @@ impl Slots {
     /// `disp += C[:, slot r] f`.
     fn push(&mut self, r: usize, f: Vector2<f64>) {
         let n = self.dim();
-        let (cx, cy) = (2 * r * n, (2 * r + 1) * n);
-        for k in 0..n {
-            self.disp[k] += self.compliance[cx + k] * f.x + self.compliance[cy + k] * f.y;
+        let (cx, cy) = (
+            &self.compliance[2 * r * n..][..n],
+            &self.compliance[(2 * r + 1) * n..][..n],
+        );
+        // (zipped slices: no bounds checks, so the loop vectorises)
+        for ((d, a), b) in self.disp.iter_mut().zip(cx).zip(cy) {
+            *d += a * f.x + b * f.y;
         }
     }
 }
