@@ -46,6 +46,30 @@ fn second_run_recomputes_nothing_and_says_so() {
 }
 
 #[test]
+fn a_cached_node_whose_files_another_run_rewrote_says_so() {
+    let dir = temp_dir("foreign");
+    let f = write(&dir, "p.yaml", SMALL);
+    let (f, out) = (f.to_str().unwrap(), dir.to_str().unwrap());
+    let run = |extra: &[&str]| {
+        let o = softgrain(&[&["pipeline", "run", f, "--out", out], extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    run(&[]);
+    // other parameters, same case folder: its files are now the variant's
+    run(&["--set", "prepare.friction=0.4"]);
+    let text = run(&[]);
+    assert!(
+        text.contains("cached, but the files in") && text.contains("--from prepare"),
+        "{text}"
+    );
+    // rewriting them makes the folder the checkpoint's again
+    run(&["--from", "prepare"]);
+    assert!(run(&[]).trim_end().ends_with("cached"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn same_seed_gives_byte_identical_checkpoints() {
     let dir = temp_dir("bits");
     let f = write(&dir, "p.yaml", SMALL);

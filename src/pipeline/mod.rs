@@ -166,7 +166,19 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         if !forced {
             match store::load::<StageState>(&path).map_err(io_err(&path))? {
                 Some(Ok(state)) => {
-                    report(opts, node, "cached");
+                    if outputs_are_own(node, &root) {
+                        report(opts, node, "cached");
+                    } else {
+                        let what = format!(
+                            "cached, but the files in {} are from other parameters (--from {} rewrites them)",
+                            node.dir(&root).display(),
+                            node.stage.name()
+                        );
+                        report(opts, node, &what);
+                        if opts.quiet {
+                            eprintln!("{} {}: {what}", node.stage.name(), node.case);
+                        }
+                    }
                     states[k] = Some(state);
                     outcomes.push((node.clone(), Outcome::Cached));
                     continue;
@@ -235,6 +247,16 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         outcomes.push((node.clone(), Outcome::Computed { seconds, summary }));
     }
     Ok(outcomes)
+}
+
+/// Whether the files in a cached node's folder are its checkpoint's: the folder's
+/// `stage.json` names the node's hash. A run with other parameters into the same `--out`
+/// rewrites the folders of the cases it shares by name, while this checkpoint stays valid.
+fn outputs_are_own(node: &Node, root: &Path) -> bool {
+    std::fs::read(node.dir(root).join("stage.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .is_some_and(|v| v["hash"] == node.hash.to_hex().as_str())
 }
 
 /// A valid checkpoint of this node's stage and hash (under any case name: an included
