@@ -1,12 +1,13 @@
-"""Window means of the quasi-static check's runs (bench/mpm_quasi_static.sh OUT_DIR):
-sigma, inertial number and kinetic ratio over strain windows, one row per run, case and
-window, to standard output as CSV (bench/mpm_quasi_static.csv).
-Usage: python3 bench/mpm_quasi_static.py OUT_DIR > bench/mpm_quasi_static.csv"""
+"""Window means of the quasi-static check's runs (bench/quasi_static.sh): sigma, inertial
+number and kinetic ratio over strain windows, one row per run, case and window, to standard
+output as CSV. Windows default to the MPM check's.
+Usage: python3 bench/quasi_static.py OUT_DIR [FROM-TO ...] > bench/quasi_static_<method>.csv"""
 import csv
 import pathlib
 import sys
 
-WINDOWS = [(0.2, 0.25), (0.25, 0.3), (0.3, 0.35)]
+WINDOWS = [tuple(map(float, w.split("-"))) for w in sys.argv[2:]] or [
+    (0.2, 0.25), (0.25, 0.3), (0.3, 0.35)]
 out = csv.writer(sys.stdout)
 out.writerow(["friction", "seed", "wall_velocity", "strain_from", "strain_to", "rows",
               "sigma_pa", "inertial", "kinetic_ratio"])
