@@ -100,7 +100,7 @@ impl Row {
 
 /// The grains' mean size and density for the inertial number, fixed at ε = 0: the diameter
 /// of the disk of the mean grain area, sqrt(4 A / (π N)), and mass over area, M / A.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GrainScale {
     pub diameter: f64,
     pub density: f64,
