@@ -63,6 +63,12 @@ fn a_cached_node_whose_files_another_run_rewrote_says_so() {
         text.contains("cached, but the files in") && text.contains("--from prepare"),
         "{text}"
     );
+    let status = softgrain(&["pipeline", "status", f, "--out", out]);
+    assert!(
+        stdout(&status).contains("cached, files from other parameters"),
+        "{}",
+        stdout(&status)
+    );
     // rewriting them makes the folder the checkpoint's again
     run(&["--from", "prepare"]);
     assert!(run(&[]).trim_end().ends_with("cached"));

@@ -299,10 +299,12 @@ fn report(opts: &RunOptions, node: &Node, what: &str) {
     }
 }
 
-/// One line per node: `cached`, `stale` (a checkpoint for other parameters exists) or
-/// `missing`. Reads file names and headers only; computes nothing.
+/// One line per node: `cached` (`cached, files from other parameters` when another run
+/// rewrote its folder), `stale` (a checkpoint for other parameters exists) or `missing`.
+/// Reads file names, headers and `stage.json` only; computes nothing.
 pub fn status(loaded: &Loaded, out: &Path) -> Vec<(Node, &'static str)> {
-    let ckpt_dir = run_dir(out, loaded).join("checkpoints");
+    let root = run_dir(out, loaded);
+    let ckpt_dir = root.join("checkpoints");
     let names: Vec<String> = std::fs::read_dir(&ckpt_dir)
         .map(|d| {
             d.flatten()
@@ -318,8 +320,10 @@ pub fn status(loaded: &Loaded, out: &Path) -> Vec<(Node, &'static str)> {
             let valid = std::fs::read(ckpt_dir.join(&own))
                 .map(|b| store::verify(&b).is_ok())
                 .unwrap_or(false);
-            let word = if valid {
+            let word = if valid && outputs_are_own(&node, &root) {
                 "cached"
+            } else if valid {
+                "cached, files from other parameters"
             } else if names
                 .iter()
                 .any(|n| n.starts_with(&prefix) && n.ends_with(".ckpt") && *n != own)
