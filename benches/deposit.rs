@@ -412,12 +412,12 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, n: usize, s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) {
+fn child(engine: &str, s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) {
     let mut out = match engine {
         "softgrain" => run_softgrain(s, seed, budget, nlgs),
         "rapier" => run_rapier(s, budget, false),
         "rapier-froude" => run_rapier(s, budget, true),
-        _ => panic!("unknown engine {engine} ({n} disks)"),
+        _ => panic!("unknown engine {engine}"),
     };
     out.peak_rss_kib = peak_rss_kib();
     println!("{}", out.line());
@@ -471,7 +471,6 @@ fn main() {
         let n: usize = args[k + 2].parse().expect("size");
         child(
             engine,
-            n,
             &setup(n, seed, step, wall_friction),
             seed,
             budget,

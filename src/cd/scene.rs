@@ -416,10 +416,16 @@ impl<L: InteractionLaw> Scene<L> {
         };
         // Both lists come out sorted by key (the pair list is sorted, the walls go by disk),
         // so merging them gives the step's contact order without a sort. A small scene
-        // merges them as they are produced, into the one list it returns.
+        // merges them as they are produced, into the one list it returns, sized by the last
+        // step's count.
         let pairs = &self.neighbours.pairs;
+        let last = self.contacts.len();
         if pairs.len().max(b.len()) < PAR_MIN {
-            merge_sorted(pairs.iter().filter_map(pair), (0..b.len()).flat_map(wall))
+            merge_sorted(
+                pairs.iter().filter_map(pair),
+                (0..b.len()).flat_map(wall),
+                last,
+            )
         } else {
             let disks: Vec<Contact> = (pairs.par_iter().with_min_len(PAR_MIN))
                 .filter_map(pair)
@@ -427,7 +433,7 @@ impl<L: InteractionLaw> Scene<L> {
             let walls: Vec<Contact> = ((0..b.len()).into_par_iter().with_min_len(PAR_MIN))
                 .flat_map_iter(wall)
                 .collect();
-            merge_sorted(disks.into_iter(), walls.into_iter())
+            merge_sorted(disks.into_iter(), walls.into_iter(), last)
         }
     }
 
@@ -452,12 +458,15 @@ impl<L: InteractionLaw> Scene<L> {
     }
 }
 
-/// One list sorted by key from two sorted by key (contact keys are unique).
+/// One list sorted by key from two sorted by key (contact keys are unique), allocated once
+/// for at least `expected` contacts or the two lists' known lengths.
 fn merge_sorted(
     disks: impl Iterator<Item = Contact>,
     walls: impl Iterator<Item = Contact>,
+    expected: usize,
 ) -> Vec<Contact> {
-    let mut contacts = Vec::new();
+    let known = disks.size_hint().0 + walls.size_hint().0;
+    let mut contacts = Vec::with_capacity(expected.max(known));
     let mut walls = walls.peekable();
     for c in disks {
         while let Some(w) = walls.next_if(|w| w.key() < c.key()) {
