@@ -97,7 +97,7 @@ fn killed_runs_end_as_uninterrupted(yaml: &str, tag: &str, kills_ms: &[u64], com
             .status();
         let _ = child.wait();
     }
-    // the lock of a killed run is stale: the next run takes it over and finishes
+    // a killed run's lock went with its process: the next run takes it and finishes
     let o = softgrain(&[
         "pipeline",
         "run",
@@ -217,7 +217,9 @@ fn a_second_run_on_the_same_folder_is_refused_while_the_first_holds_the_lock() {
     let dir = temp_dir("lock");
     let file = write(&dir, "g.yaml", DEPOSIT);
     std::fs::create_dir_all(dir.join("g")).unwrap();
-    // a live holder: this test process
+    // a live holder: this test process, holding the lock as a run does
+    let held = std::fs::File::create(dir.join("g/.lock")).unwrap();
+    held.try_lock().unwrap();
     std::fs::write(dir.join("g/.lock"), format!("{}\n", std::process::id())).unwrap();
     let o = softgrain(&[
         "pipeline",
@@ -233,7 +235,8 @@ fn a_second_run_on_the_same_folder_is_refused_while_the_first_holds_the_lock() {
         "{}",
         stderr(&o)
     );
-    // a dead holder: stale, taken over
+    // the file a dead holder leaves (its lock went with its process) does not block
+    drop(held);
     std::fs::write(dir.join("g/.lock"), "4000000000\n").unwrap();
     let o = softgrain(&[
         "pipeline",

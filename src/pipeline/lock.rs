@@ -1,76 +1,72 @@
-//! One run at a time per output folder: a lock file holding the holder's pid, created
-//! exclusively and complete (hard link); a lock whose process is gone is stale and taken
-//! over.
+//! One run at a time per output folder: an advisory lock (flock) on the folder's `.lock`
+//! file, which also holds the holder's pid for the message. The kernel releases the lock
+//! when its process ends, however it ends, so a killed run leaves nothing to take over.
 
-use std::fs;
-use std::io::Write;
+use std::fs::{self, File, OpenOptions, TryLockError};
+use std::io::{Read, Seek, Write};
+use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 pub struct Lock {
     path: PathBuf,
+    /// Holds the lock until it is closed.
+    _file: File,
 }
 
 impl Lock {
-    /// Takes the lock at `path`, or says which live process holds it. The pid is written to
-    /// a file of this process's own first and hard-linked to `path`, which fails if `path`
-    /// exists: the lock never appears empty, so a run starting at the same moment cannot
-    /// read it as stale and take it over.
+    /// Takes the lock at `path`, or says which process holds it.
     pub fn take(path: &Path) -> Result<Lock, String> {
-        let err = |p: &Path, e: std::io::Error| format!("{}: {e}", p.display());
+        let err = |e: std::io::Error| format!("{}: {e}", path.display());
         if let Some(dir) = path.parent() {
-            fs::create_dir_all(dir).map_err(|e| err(dir, e))?;
+            fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         }
-        // unique per call: threads of one process share its pid
-        static CALLS: AtomicU64 = AtomicU64::new(0);
-        let call = CALLS.fetch_add(1, Ordering::Relaxed);
-        let own = path.with_extension(format!("pid-{}-{call}", std::process::id()));
-        let mut f = fs::File::create(&own).map_err(|e| err(&own, e))?;
-        writeln!(f, "{}", std::process::id())
-            .and_then(|_| f.sync_all())
-            .map_err(|e| err(&own, e))?;
-        let taken = Self::link(&own, path);
-        let _ = fs::remove_file(&own);
-        taken
-    }
-
-    fn link(own: &Path, path: &Path) -> Result<Lock, String> {
-        for _ in 0..2 {
-            match fs::hard_link(own, path) {
-                Ok(()) => {
-                    return Ok(Lock {
-                        path: path.to_path_buf(),
-                    });
+        // A holder removes the file before it closes it, so the file opened here may be one
+        // that was just removed: locked, it is ours only if `path` still names it.
+        loop {
+            let mut file = OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(path)
+                .map_err(err)?;
+            match file.try_lock() {
+                Ok(()) => {}
+                Err(TryLockError::WouldBlock) => {
+                    let mut holder = String::new();
+                    let _ = file.read_to_string(&mut holder);
+                    let pid = match holder.trim() {
+                        "" => "starting".to_string(),
+                        pid => format!("pid {pid}"),
+                    };
+                    return Err(format!(
+                        "another softgrain run ({pid}) is writing to this folder; lock {}",
+                        path.display()
+                    ));
                 }
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let holder = fs::read_to_string(path).unwrap_or_default();
-                    let pid: Option<u32> = holder.trim().parse().ok();
-                    if pid.is_some_and(alive) {
-                        return Err(format!(
-                            "another softgrain run (pid {}) is writing to this folder; lock {}",
-                            pid.unwrap_or(0),
-                            path.display()
-                        ));
-                    }
-                    // stale: its process is gone (or the file is unreadable)
-                    let _ = fs::remove_file(path);
-                }
-                Err(e) => return Err(format!("{}: {e}", path.display())),
+                Err(TryLockError::Error(e)) => return Err(err(e)),
             }
+            let (ours, named) = (file.metadata().map_err(err)?, fs::metadata(path));
+            if !named.is_ok_and(|m| m.dev() == ours.dev() && m.ino() == ours.ino()) {
+                continue;
+            }
+            file.set_len(0)
+                .and_then(|_| file.rewind())
+                .and_then(|_| writeln!(file, "{}", std::process::id()))
+                .map_err(err)?;
+            return Ok(Lock {
+                path: path.to_path_buf(),
+                _file: file,
+            });
         }
-        Err(format!("could not take the lock {}", path.display()))
     }
 }
 
 impl Drop for Lock {
+    /// Removes the file, then releases the lock by closing it (the field drops after this).
     fn drop(&mut self) {
         let _ = fs::remove_file(&self.path);
     }
-}
-
-/// Whether a process with this pid exists (Linux: /proc).
-fn alive(pid: u32) -> bool {
-    pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
 }
 
 #[cfg(test)]
@@ -99,6 +95,37 @@ mod tests {
             let taken = held.iter().filter(|r| r.is_ok()).count();
             assert_eq!(taken, 1, "round {round}: {taken} holders");
         }
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn runs_taking_and_releasing_in_turn_never_overlap() {
+        // Each thread takes the lock repeatedly, as runs started one after another do; a
+        // holder's release (remove, then close) must not let two threads hold it at once.
+        let dir = std::env::temp_dir().join(format!("softgrain-turns-{}", std::process::id()));
+        let path = dir.join(".lock");
+        let holders = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let threads: Vec<_> = (0..4)
+            .map(|_| {
+                let (path, holders) = (path.clone(), holders.clone());
+                std::thread::spawn(move || {
+                    let mut taken = 0;
+                    for _ in 0..500 {
+                        if let Ok(lock) = Lock::take(&path) {
+                            let now = holders.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                            assert_eq!(now, 0, "two holders at once");
+                            std::thread::yield_now();
+                            holders.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
+                            drop(lock);
+                            taken += 1;
+                        }
+                    }
+                    taken
+                })
+            })
+            .collect();
+        let taken: usize = threads.into_iter().map(|t| t.join().unwrap()).sum();
+        assert!(taken > 0);
         let _ = fs::remove_dir_all(&dir);
     }
 }
