@@ -62,7 +62,7 @@ pub fn comparison(refs: &[Stated], cases: &[CaseSummary]) -> String {
 /// The fits of the packing cases.
 fn fits(cases: &[CaseSummary]) -> String {
     let mut t = String::from(
-        "| case | law | value | R² | Φ range | points | α by nonlinear least squares (R²) |\n| --- | --- | --- | --- | --- | --- | --- |\n",
+        "| case | law | value | R² | Φ range | points | α by nonlinear least squares (R²) | stress scale σ0/value (Pa) |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     let opt = |v: Option<f64>| v.map_or("—".to_string(), num);
     for c in cases.iter().filter(|c| c.fit.is_some()) {
@@ -77,13 +77,14 @@ fn fits(cases: &[CaseSummary]) -> String {
         };
         let _ = writeln!(
             t,
-            "| {} | {law} | {} | {} | [{}, {}] | {} | {nls} |",
+            "| {} | {law} | {} | {} | [{}, {}] | {} | {nls} | {} |",
             c.case,
             num(value),
             opt(c.r2),
             opt(c.fit_phi_min),
             opt(c.fit_phi_max),
-            c.fit_points.unwrap_or(0)
+            c.fit_points.unwrap_or(0),
+            opt(c.stress_scale)
         );
     }
     t

@@ -63,6 +63,12 @@ pub struct CaseSummary {
     pub alpha_nls: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub r2_nls: Option<f64>,
+    /// The fit's stress scale (Pa): σ0/α for Eq. 14, where dΦ/dσ = (1 − Φ)/(σ0/α), and
+    /// σ0/slope for Eq. 16, where dΦ/dσ = slope/σ0. α and the slope are proportional to σ0,
+    /// which the packing reaches on the steep rise at jamming when Φ = Φ0 comes early; the
+    /// ratio is set by the data above Φ0 and barely moves with σ0.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stress_scale: Option<f64>,
     // ---- single grains ----
     /// dσ/dε through the origin on 0 < ε <= `analyse.small_strain` (Pa).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -160,6 +166,7 @@ pub fn packing(df: &DataFrame, a: &Analyse) -> PolarsResult<(CaseSummary, DataFr
             s.slope = f.map(|f| f.value);
             s.r2 = f.map(|f| f.r2);
         }
+        s.stress_scale = s.alpha.or(s.slope).map(|k| sigma0 / k);
     }
     Ok((s, out))
 }
@@ -268,6 +275,7 @@ mod tests {
         assert!((s.strain_at_phi0.unwrap() - 0.2).abs() < 1e-9);
         assert!((s.alpha.unwrap() / 0.27 - 1.0).abs() < 1e-9);
         assert!((s.alpha_nls.unwrap() / 0.27 - 1.0).abs() < 1e-9);
+        assert!((s.stress_scale.unwrap() / (1000.0 / 0.27) - 1.0).abs() < 1e-9);
         assert!(s.slope.is_none() && s.r2.unwrap() > 0.999_999);
         assert!((s.phi_initial.unwrap() - 0.65).abs() < 1e-12);
         // Φ up to 0.98 only: 0.8 + 0.75 k 0.005 <= 0.98 -> 49 points

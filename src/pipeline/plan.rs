@@ -1,10 +1,12 @@
 //! The stage graph: prepare -> discretise -> compact -> analyse, fanned out into cases
 //! (method x particle-size range x friction). Each node's name is blake3 over (stage kind,
-//! format version, canonical parameters, upstream hashes) and nothing else, so equal work
-//! always has equal names and `--set` hashes exactly like an edited file.
+//! format version, canonical parameters, upstream hashes; for analyse also its own version)
+//! and nothing else, so equal work always has equal names and `--set` hashes exactly like an
+//! edited file.
 
 use super::codec::FORMAT_VERSION;
 use crate::config::{Layout, Loaded, Method, Pipeline, Solver};
+use crate::stages::analyse::ANALYSIS_VERSION;
 use serde::Serialize;
 use serde_json::json;
 
@@ -91,6 +93,9 @@ fn node<P: Serialize>(
     let mut h = blake3::Hasher::new();
     h.update(stage.name().as_bytes());
     h.update(&FORMAT_VERSION.to_le_bytes());
+    if stage == Stage::Analyse {
+        h.update(&ANALYSIS_VERSION.to_le_bytes());
+    }
     h.update(&serde_json::to_vec(&params).expect("json"));
     for &u in &upstream {
         h.update(nodes[u].hash.as_bytes());

@@ -14,6 +14,11 @@ use polars::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+/// Version of what this stage computes from unchanged upstream states, in its node's hash:
+/// bumping it redoes cached analyses (cheap) without recomputing what they read, as bumping
+/// `FORMAT_VERSION` would. Version 2 adds the fits' stress scale.
+pub const ANALYSIS_VERSION: u32 = 2;
+
 /// The checkpoint payload: the summary (as `summary.json` holds it) and the files written.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Analysed {
