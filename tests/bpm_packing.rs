@@ -115,3 +115,69 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
     );
     assert!(c.network.iter().any(|l| l.between_grains && l.force > 0.0));
 }
+
+/// `quick.yaml`'s 30 grains started just below their deposit's Φ (0.635 in the closed-area
+/// convention), as `paper-coarse.yaml` is, so that the packing jams by ε ≈ 0.2 and the
+/// paper's BPM trends past jamming fall within ε = 0.45.
+const DENSE: &str = "name: d\nseed: 42\nprepare:\n  grains: 30\n  diameter: [1.4e-3, 2.4e-3]\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [2.0e-4, 3.4e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.5\n  final_strain: 0.45\n  initial_phi: 0.63\noutput:\n  every: 100\n  vtk: false\n";
+
+#[test]
+fn from_a_dense_start_a_bpm_packing_shows_the_papers_trends_past_jamming() {
+    use softgrain::analysis::{series, summary};
+    let run = |mu: &str| {
+        let dir = common::temp_dir(&format!("bpmdense{mu}"));
+        let file = common::write(&dir, "d.yaml", DENSE);
+        let state = common::run_to_state(&dir, &file, &[&format!("compact.friction={mu}")]);
+        let _ = std::fs::remove_dir_all(&dir);
+        match state {
+            StageState::Packing(c) => c,
+            other => panic!("compact produced {other:?}"),
+        }
+    };
+    let (smooth, rough) = (run("0.0"), run("0.5"));
+    for c in [&smooth, &rough] {
+        let last = c.rows.last().unwrap();
+        // the paper: Φ ≈ 0.99 at ε = 0.45 (Fig. 8c); the issue asks Φ ≥ 0.97
+        assert!(
+            last.strain >= 0.45 && last.phi >= 0.97,
+            "Φ(0.45) = {}",
+            last.phi
+        );
+        // the stress diverges as the pores fill (Fig. 10): σ grows faster than ε
+        let (early, late) = (
+            mean(&c.rows, 0.37, 0.39, |r| r.sigma),
+            mean(&c.rows, 0.43, 0.45, |r| r.sigma),
+        );
+        assert!(
+            late > 2.0 * early,
+            "σ {early} over (0.37, 0.39], {late} over (0.43, 0.45]"
+        );
+        // Z rises past jamming
+        let (z1, z2) = (
+            mean(&c.rows, 0.25, 0.3, |r| r.z),
+            mean(&c.rows, 0.4, 0.45, |r| r.z),
+        );
+        assert!(z1 >= 2.0 && z2 > z1 + 0.5, "Z {z1} then {z2}");
+    }
+    // friction barely changes Φ (the paper: the primary particles roll freely)
+    for (a, b) in smooth.rows.iter().zip(&rough.rows) {
+        assert!(
+            (a.phi - b.phi).abs() < 0.01,
+            "ε = {}: Φ {} against {}",
+            a.strain,
+            a.phi,
+            b.phi
+        );
+    }
+    // Eq. 14's stress scale σ0/α, unlike α (0.43 against 0.77 here, σ0 being read on the
+    // steep rise after jamming), agrees between the frictions within the 20-30% that σ
+    // scatters from seed to seed at 30 grains (README "BPM packings"; 15% apart here)
+    let scale = |c: &PackingCompacted, case: &str| {
+        let df = series::packing(case, c).unwrap();
+        let (s, _) = summary::packing(&df, &Default::default()).unwrap();
+        assert!(s.fit_points.unwrap() >= 20, "{s:?}");
+        s.stress_scale.unwrap()
+    };
+    let (s0, s5) = (scale(&smooth, "bpm-mu0"), scale(&rough, "bpm-mu0.5"));
+    assert!((s0 / s5 - 1.0).abs() < 0.3, "σ0/α {s0} against {s5} Pa");
+}
