@@ -166,7 +166,8 @@ pub fn packing(df: &DataFrame, a: &Analyse) -> PolarsResult<(CaseSummary, DataFr
             s.slope = f.map(|f| f.value);
             s.r2 = f.map(|f| f.r2);
         }
-        s.stress_scale = s.alpha.or(s.slope).map(|k| sigma0 / k);
+        // a fit that makes Φ fall as σ rises has no stress scale
+        s.stress_scale = s.alpha.or(s.slope).filter(|k| *k > 0.0).map(|k| sigma0 / k);
     }
     Ok((s, out))
 }
