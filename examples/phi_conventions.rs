@@ -38,12 +38,7 @@ fn main() {
         .collect();
     // L h0, from the first frame in the reported convention
     let first = read_grains(&dir.join("frame_000000.vtu"));
-    let r_first = min_radius(&first);
-    let box0 = first
-        .iter()
-        .map(|(pos, rad)| closed_area(pos, rad, max_radius(&first), 0.5 * r_first))
-        .sum::<f64>()
-        / rows[0].1;
+    let box0 = total_area(&first, max_radius(&first)) / rows[0].1;
     println!("strain,phi_reported,phi_closed_rmax,phi_closed_rmin,phi_closed_2rmax,phi_particles");
     for (k, &(strain, phi)) in rows.iter().enumerate() {
         if strain < min_strain {
@@ -55,13 +50,7 @@ fn main() {
         }
         let grains = read_grains(&frame);
         let (r_min, r_max) = (min_radius(&grains), max_radius(&grains));
-        // the pipeline's raster (pixel r_min / 2)
-        let total = |s: f64| -> f64 {
-            grains
-                .iter()
-                .map(|(pos, rad)| closed_area(pos, rad, s, 0.5 * r_min))
-                .sum()
-        };
+        let total = |s: f64| total_area(&grains, s);
         let box_area = box0 * (-strain).exp();
         let particles: f64 = grains
             .iter()
@@ -76,6 +65,15 @@ fn main() {
             particles / box_area
         );
     }
+}
+
+/// The grains' total area closed with radius `s`, on the pipeline's raster (pixel r_min / 2).
+fn total_area(grains: &[(Vec<V2>, Vec<f64>)], s: f64) -> f64 {
+    let pixel = 0.5 * min_radius(grains);
+    grains
+        .iter()
+        .map(|(pos, rad)| closed_area(pos, rad, s, pixel))
+        .sum()
 }
 
 fn min_radius(grains: &[(Vec<V2>, Vec<f64>)]) -> f64 {

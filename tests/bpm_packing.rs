@@ -10,9 +10,9 @@ use softgrain::stages::StageState;
 
 const PACK: &str = "name: p\nseed: 7\nprepare:\n  grains: 16\n  diameter: [1.4e-3, 2.4e-3]\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [2.0e-4, 3.4e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.5\n  final_strain: 0.5\n  initial_phi: 0.55\noutput:\n  every: 100\n  vtk: false\n";
 
-fn compact(tag: &str, sets: &[&str]) -> PackingCompacted {
+fn compact(yaml: &str, tag: &str, sets: &[&str]) -> PackingCompacted {
     let dir = common::temp_dir(tag);
-    let file = common::write(&dir, "p.yaml", PACK);
+    let file = common::write(&dir, "p.yaml", yaml);
     let state = common::run_to_state(&dir, &file, sets);
     let _ = std::fs::remove_dir_all(&dir);
     match state {
@@ -33,7 +33,7 @@ fn mean(rows: &[Row], lo: f64, hi: f64, f: impl Fn(&Row) -> f64) -> f64 {
 
 #[test]
 fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
-    let c = compact("bpmpack", &[]);
+    let c = compact(PACK, "bpmpack", &[]);
     assert_eq!(c.method, Method::Bpm);
     assert_eq!(c.grains, 16);
     let rows = &c.rows;
@@ -125,14 +125,11 @@ const DENSE: &str = "name: d\nseed: 42\nprepare:\n  grains: 30\n  diameter: [1.4
 fn from_a_dense_start_a_bpm_packing_shows_the_papers_trends_past_jamming() {
     use softgrain::analysis::{series, summary};
     let run = |mu: &str| {
-        let dir = common::temp_dir(&format!("bpmdense{mu}"));
-        let file = common::write(&dir, "d.yaml", DENSE);
-        let state = common::run_to_state(&dir, &file, &[&format!("compact.friction={mu}")]);
-        let _ = std::fs::remove_dir_all(&dir);
-        match state {
-            StageState::Packing(c) => c,
-            other => panic!("compact produced {other:?}"),
-        }
+        compact(
+            DENSE,
+            &format!("bpmdense{mu}"),
+            &[&format!("compact.friction={mu}")],
+        )
     };
     let (smooth, rough) = (run("0.0"), run("0.5"));
     for c in [&smooth, &rough] {
