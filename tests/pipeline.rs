@@ -189,6 +189,11 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(hashes(&dir, GRAPH, &["solver.anderson=0"]), base);
     let r = hashes(&dir, GRAPH, &["solver.anderson=8"]);
     assert_eq!(changed(&r).len(), base.len());
+    // the compact stage's own solver setting: the BPM compactions only (the MPM node
+    // contact does not read it), and nothing when it equals the pipeline's
+    let r = hashes(&dir, GRAPH, &["compact.solver.anderson=8"]);
+    assert_eq!(changed(&r), cases[4..8].to_vec());
+    assert_eq!(hashes(&dir, GRAPH, &["compact.solver.anderson=0"]), base);
     // a case is named by its own friction and particle range, not by the lists: adding a
     // friction value or dropping one leaves the other cases' names (and work) alone
     let more = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.25,0.5]"]);
@@ -387,6 +392,82 @@ fn an_included_pipeline_joins_the_graph_with_its_own_hashes_and_checkpoints() {
     assert!(
         e.contains("bad.yaml") && e.contains("include[0]") && e.contains("missing.yaml"),
         "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_compaction_only_solver_setting_recomputes_the_compaction_alone_and_reaches_its_solver() {
+    let dir = temp_dir("compact-solver");
+    let yaml = "name: g\nseed: 1\nprepare:\n  layout: single\n  radius: 1.5e-3\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.05\noutput:\n  every: 100\n  vtk: false\n";
+    let f = write(&dir, "g.yaml", yaml);
+    let (f, out) = (f.to_str().unwrap(), dir.to_str().unwrap());
+    let sweeps = || -> f64 {
+        let text = std::fs::read_to_string(dir.join("g/compact/bpm-mu0/stage.json")).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let f = &v["figures"];
+        f["nlgs_iterations"].as_f64().unwrap() / f["steps"].as_f64().unwrap()
+    };
+    let first = softgrain(&["pipeline", "run", f, "--out", out]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    let plain = sweeps();
+    let set = "compact.solver.tolerance=1.0e-2";
+    let second = softgrain(&["pipeline", "run", f, "--out", out, "--set", set]);
+    assert!(second.status.success(), "{}", stderr(&second));
+    let text = stdout(&second);
+    let line = |stage: &str| {
+        text.lines()
+            .find(|l| l.contains(stage))
+            .unwrap()
+            .to_string()
+    };
+    assert!(line("prepare").ends_with("cached"), "{text}");
+    assert!(line("discretise").ends_with("cached"), "{text}");
+    assert!(!line("compact").ends_with("cached"), "{text}");
+    // a 60 times looser tolerance stops the sweeps sooner: the setting reached the solve
+    let loose = sweeps();
+    assert!(
+        loose < 0.5 * plain,
+        "{loose} against {plain} sweeps per step"
+    );
+    // a key over the pipeline's own value names the same node: the first run's is cached
+    // (its files in the case folder being the second run's, which the line says)
+    let same = softgrain(&[
+        "pipeline",
+        "run",
+        f,
+        "--out",
+        out,
+        "--set",
+        "compact.solver.tolerance=1.666e-4",
+    ]);
+    assert!(
+        stdout(&same).lines().all(|l| l.contains(" cached")),
+        "{}",
+        stdout(&same)
+    );
+    // checked like `solver`, and named so
+    let bad = softgrain(&["validate", f, "--set", "compact.solver.anderson=20"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(
+        stderr(&bad).contains("compact.solver.anderson = 20: must be in 0..=16"),
+        "{}",
+        stderr(&bad)
+    );
+    let bad = softgrain(&["validate", f, "--set", "compact.solver.nope=1"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(stderr(&bad).contains("unknown"), "{}", stderr(&bad));
+    let mpm = yaml.replace(
+        "  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\n",
+        "  method: mpm\n  mpm:\n    young: 1.0e7\n    poisson: 0.45\n    density: 990.0\n    resolution: 0.1\n",
+    );
+    let m = write(&dir, "m.yaml", &mpm);
+    let bad = softgrain(&["validate", m.to_str().unwrap(), "--set", set]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(
+        stderr(&bad).contains("compact.solver") && stderr(&bad).contains("BPM compactions only"),
+        "{}",
+        stderr(&bad)
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

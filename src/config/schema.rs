@@ -344,6 +344,52 @@ pub struct Compact {
     /// Packings: packing fraction at ε = 0, which places the top wall (the paper: 0.65).
     #[serde(default = "initial_phi")]
     pub initial_phi: f64,
+    /// Contact-dynamics settings of this stage only, each key over `solver`'s: e.g.
+    /// `{anderson: 8}` accelerates the compaction and leaves the deposit and the
+    /// discretisation (and their checkpoints) as they are. BPM only: the MPM node contact
+    /// has its own solver.
+    #[serde(default)]
+    pub solver: Option<SolverOverride>,
+}
+
+/// Keys of `Solver` set for one stage; an absent key keeps the pipeline's `solver` value.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverOverride {
+    pub theta: Option<f64>,
+    pub tolerance: Option<f64>,
+    pub check_every: Option<u32>,
+    pub max_iterations: Option<u32>,
+    pub relaxation: Option<f64>,
+    pub anderson: Option<u32>,
+    pub alert: Option<f64>,
+    pub skin: Option<f64>,
+}
+
+impl SolverOverride {
+    /// `base` with the keys set here replaced.
+    pub fn over(&self, base: &Solver) -> Solver {
+        Solver {
+            theta: self.theta.unwrap_or(base.theta),
+            tolerance: self.tolerance.unwrap_or(base.tolerance),
+            check_every: self.check_every.unwrap_or(base.check_every),
+            max_iterations: self.max_iterations.unwrap_or(base.max_iterations),
+            relaxation: self.relaxation.unwrap_or(base.relaxation),
+            anderson: self.anderson.unwrap_or(base.anderson),
+            alert: self.alert.unwrap_or(base.alert),
+            skin: self.skin.unwrap_or(base.skin),
+        }
+    }
+}
+
+impl Pipeline {
+    /// The solver settings of the compact stage: `solver` with `compact.solver` over it.
+    pub fn compact_solver(&self) -> Solver {
+        match self.compact.as_ref().and_then(|c| c.solver.as_ref()) {
+            Some(o) => o.over(&self.solver),
+            None => self.solver.clone(),
+        }
+    }
 }
 
 fn initial_phi() -> f64 {

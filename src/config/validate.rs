@@ -54,17 +54,35 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
         )?;
     }
     prepare(&p.prepare)?;
-    solver(&p.solver)?;
+    solver(&p.solver, "solver")?;
+    if p.compact.as_ref().is_some_and(|c| c.solver.is_some()) {
+        let methods = p.discretise.as_ref().map(|d| d.method.to_vec());
+        if !methods.as_ref().is_some_and(|m| m.contains(&Method::Bpm)) {
+            fail(
+                "compact.solver",
+                methods.unwrap_or_default(),
+                "applies to BPM compactions only (discretise.method has no bpm; the MPM node contact has its own solver)",
+            )?;
+        }
+        solver(&p.compact_solver(), "compact.solver")?;
+    }
     if let Some(d) = &p.discretise {
         discretise(d)?;
         bpm_fits(p, d)?;
         // the rolling impulse is not in Anderson's accelerated vector (`cd/anderson.rs`)
-        if p.solver.anderson > 0 && d.bpm.as_ref().is_some_and(|b| b.rolling_resistance > 0.0) {
-            fail(
-                "solver.anderson",
-                p.solver.anderson,
-                "must be 0 with discretise.bpm.rolling_resistance > 0",
-            )?;
+        if d.bpm.as_ref().is_some_and(|b| b.rolling_resistance > 0.0) {
+            for (key, s) in [
+                ("solver", &p.solver),
+                ("compact.solver", &p.compact_solver()),
+            ] {
+                if s.anderson > 0 {
+                    fail(
+                        &format!("{key}.anderson"),
+                        s.anderson,
+                        "must be 0 with discretise.bpm.rolling_resistance > 0",
+                    )?;
+                }
+            }
         }
     }
     if let Some(c) = &p.compact {
@@ -194,29 +212,32 @@ fn prepare(p: &Prepare) -> Result<(), Failure> {
     Ok(())
 }
 
-fn solver(s: &Solver) -> Result<(), Failure> {
+/// The solver settings `s`, named `<section>.<key>` in errors (`solver`, or a stage's
+/// override with the pipeline's `solver` under it).
+fn solver(s: &Solver, section: &str) -> Result<(), Failure> {
+    let key = |k: &str| format!("{section}.{k}");
     if !(0.5..=1.0).contains(&s.theta) {
-        fail("solver.theta", s.theta, "must be in [0.5, 1]")?;
+        fail(&key("theta"), s.theta, "must be in [0.5, 1]")?;
     }
-    positive("solver.tolerance", s.tolerance)?;
+    positive(&key("tolerance"), s.tolerance)?;
     if s.check_every == 0 {
-        fail("solver.check_every", s.check_every, "must be >= 1")?;
+        fail(&key("check_every"), s.check_every, "must be >= 1")?;
     }
     if s.max_iterations < s.check_every {
         fail(
-            "solver.max_iterations",
+            &key("max_iterations"),
             s.max_iterations,
-            "must be >= solver.check_every",
+            &format!("must be >= {}", key("check_every")),
         )?;
     }
     if !(s.relaxation > 0.0 && s.relaxation < 2.0) {
-        fail("solver.relaxation", s.relaxation, "must be in (0, 2)")?;
+        fail(&key("relaxation"), s.relaxation, "must be in (0, 2)")?;
     }
     if s.anderson > 16 {
-        fail("solver.anderson", s.anderson, "must be in 0..=16")?;
+        fail(&key("anderson"), s.anderson, "must be in 0..=16")?;
     }
-    positive("solver.alert", s.alert)?;
-    non_negative("solver.skin", s.skin)
+    positive(&key("alert"), s.alert)?;
+    non_negative(&key("skin"), s.skin)
 }
 
 /// The BPM particles must fit their grains, and the compaction step must be below the

@@ -208,10 +208,20 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
     }
     let mut compacted = Vec::new();
     if let Some(c) = &p.compact {
+        // The settings a BPM compaction solves with, `compact.solver` merged in (a key set
+        // there to the pipeline's own value names the same node). The MPM node contact does
+        // not read them, but its nodes hash `solver` as they always have.
+        let bpm_solver = canonical_solver(&p.compact_solver());
         for (up, dcase) in &discretised {
             for mu in c.friction.to_vec() {
                 let case = format!("{dcase}-mu{mu}");
-                let compact = one_of(c, "friction", mu);
+                let mut compact = one_of(c, "friction", mu);
+                // (hashed as part of `solver` below; absent, it keeps the older names)
+                compact.as_object_mut().expect("a section").remove("solver");
+                let solver = match nodes[*up].method {
+                    Some(Method::Bpm) => &bpm_solver,
+                    _ => &solver,
+                };
                 let params = json!({"compact": compact, "solver": solver, "output": p.output});
                 nodes.push(node(Stage::Compact, case, &params, vec![*up], nodes));
                 nodes.last_mut().expect("pushed").method = nodes[*up].method;

@@ -122,7 +122,7 @@ fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running,
         velocity: V2::new(0.0, -c.wall_velocity),
     });
     let d_min = 2.0 * b.radius.iter().cloned().fold(f64::INFINITY, f64::min);
-    let params = super::cd_params(&p.solver, dt, c.gravity, d_min);
+    let params = super::cd_params(&p.compact_solver(), dt, c.gravity, d_min);
     let wall_laws = vec![
         BpmLaw::Coulomb {
             mu: c.wall_friction

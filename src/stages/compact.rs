@@ -126,7 +126,7 @@ fn new_run(
         ));
     }
     let d_min = 2.0 * b.radius.iter().cloned().fold(f64::INFINITY, f64::min);
-    let params = super::cd_params(&p.solver, dt, c.gravity, d_min);
+    let params = super::cd_params(&p.compact_solver(), dt, c.gravity, d_min);
     let top = walls.len() - 1;
     let wall_laws = vec![
         BpmLaw::Coulomb {
