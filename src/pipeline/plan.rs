@@ -216,7 +216,8 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
             for mu in c.friction.to_vec() {
                 let case = format!("{dcase}-mu{mu}");
                 let mut compact = one_of(c, "friction", mu);
-                // (hashed as part of `solver` below; absent, it keeps the older names)
+                // the override is hashed merged into `solver` below, not here as well (a
+                // null key here would rename every existing compact node)
                 compact.as_object_mut().expect("a section").remove("solver");
                 let solver = match nodes[*up].method {
                     Some(Method::Bpm) => &bpm_solver,

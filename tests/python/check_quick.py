@@ -52,7 +52,7 @@ for case in ("bpm-mu0", "bpm-mu0.5"):
     check(f"{case}: particles of 30 grains", len(set(gid.tolist())) == 30 and len(gid) > 30 * 15)
     rows = list(csv.DictReader(open(comp / "timeseries.csv")))
     check(f"{case}: contract columns", all(k in rows[0] for k in ("time", "strain", "phi", "z", "sigma")))
-    check(f"{case}: starts at Φ0 = 0.55", abs(float(rows[0]["phi"]) - 0.55) < 1e-9)
+    check(f"{case}: starts at Φ0 = 0.63", abs(float(rows[0]["phi"]) - 0.63) < 1e-9)
     last = rows[-1]
     check(f"{case}: reaches ε = 0.45 loaded", float(last["strain"]) >= 0.45 and float(last["sigma"]) > 0)
     check(f"{case}: inertial number defined once loaded", 0 < float(last["inertial"]) < 1)
