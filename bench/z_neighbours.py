@@ -1,7 +1,10 @@
 """Z of a BPM compaction against the neighbours its grains could touch (README "BPM packings").
 
-For frames of one case folder (`compact/<case>/frame_*.vtu` and `contacts_*.vtu`):
-  z_force   grain pairs with a particle contact carrying a normal force (the reported Z),
+For frames of one case folder (`compact/<case>/frame_*.vtu`, and `contacts_*.vtu` with
+--threshold):
+  z         the reported Z (timeseries.csv: grain pairs with a loaded particle contact),
+  z_f<EPS>  the same counting only particle contacts with f_n > EPS <f_n> (METHODS §2.4's
+            force threshold), one column per --threshold value,
   z_near    grain pairs with two particles closer than GAP d_min (neighbours, touching or not),
   z_tiling  grain pairs adjacent in the tiling of the box that gives every point to the
             grain of its nearest particle (power distance): the Z the arrangement would have
@@ -9,8 +12,9 @@ For frames of one case folder (`compact/<case>/frame_*.vtu` and `contacts_*.vtu`
 A pair of grains sharing fewer than 3 pixel edges in the tiling is a corner, not a face.
 
 Usage: python3 bench/z_neighbours.py CASE_FOLDER [--stride K] [--tiling] [--pixel P] [--gap G]
-Prints CSV: frame,strain,phi,z_force,z_near[,z_tiling]. Needs numpy and meshio; the tiling
-takes about 1.5 min per frame at 300 grains with --pixel 5e-5 (m).
+                                     [--threshold EPS ...]
+Prints CSV: frame,strain,phi,z[,z_f<EPS>...],z_near[,z_tiling]. Needs numpy and meshio; the
+tiling takes about 1.5 min per frame at 300 grains with --pixel 5e-5 (m).
 """
 
 import argparse
@@ -32,8 +36,8 @@ def pairs_z(pairs, n_grains):
     return 2 * len(pairs) / n_grains
 
 
-def force_pairs(path):
-    """Grain pairs joined by a loaded contact line."""
+def force_pairs(path, eps):
+    """Grain pairs joined by a contact line with f_n > eps <f_n> (the mean over loaded lines)."""
     try:
         c = meshio.read(path)
     except KeyError:  # a frame without contacts has no cells
@@ -44,7 +48,7 @@ def force_pairs(path):
     f = c.cell_data["normal_force"][0]
     g = c.point_data["grain_id"].astype(int)
     gi, gj = g[lines[:, 0]], g[lines[:, 1]]
-    keep = (gi != gj) & (f > 0)
+    keep = (gi != gj) & (f > eps * f[f > 0].mean())
     return set(zip(np.minimum(gi, gj)[keep], np.maximum(gi, gj)[keep]))
 
 
@@ -85,26 +89,30 @@ def main():
     ap.add_argument("--tiling", action="store_true")
     ap.add_argument("--pixel", type=float, default=2e-5)
     ap.add_argument("--gap", type=float, default=0.25)
+    ap.add_argument("--threshold", type=float, action="append", default=[])
     a = ap.parse_args()
     rows = list(csv.DictReader(open(a.case + "/timeseries.csv")))
     frames = sorted(glob.glob(a.case + "/frame_*.vtu"))
     picked = frames[:: a.stride]
     if picked[-1] != frames[-1]:
         picked.append(frames[-1])
-    head = "frame,strain,phi,z_force,z_near" + (",z_tiling" if a.tiling else "")
+    head = ",".join(
+        ["frame,strain,phi,z"]
+        + [f"z_f{eps:g}" for eps in a.threshold]
+        + ["z_near"]
+        + (["z_tiling"] if a.tiling else [])
+    )
     print(head)
     for f in picked:
         k = int(re.findall(r"(\d+)\.vtu$", f)[0])
         x, g, r = particles(f)
         n = g.max() + 1
         row = rows[min(k, len(rows) - 1)]  # a frame and a row every output.every steps
-        out = [
-            str(k),
-            row["strain"],
-            row["phi"],
-            f"{pairs_z(force_pairs(f.replace('frame_', 'contacts_')), n):.3f}",
-            f"{pairs_z(near_pairs(x, g, r, a.gap), n):.3f}",
-        ]
+        out = [str(k), row["strain"], row["phi"], f"{float(row['z']):.3f}"]
+        for eps in a.threshold:
+            pairs = force_pairs(f.replace("frame_", "contacts_"), eps)
+            out.append(f"{pairs_z(pairs, n):.3f}")
+        out.append(f"{pairs_z(near_pairs(x, g, r, a.gap), n):.3f}")
         if a.tiling:
             out.append(f"{pairs_z(tiling_pairs(x, g, r, a.pixel), n):.3f}")
         print(",".join(out), flush=True)
