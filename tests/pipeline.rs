@@ -471,3 +471,39 @@ fn a_compaction_only_solver_setting_recomputes_the_compaction_alone_and_reaches_
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn progress_goes_to_the_log_as_lines_when_stderr_is_not_a_terminal() {
+    let dir = temp_dir("progress-log");
+    let yaml = "name: g\nseed: 1\nprepare:\n  layout: single\n  radius: 1.5e-3\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.03\noutput:\n  every: 20\n  vtk: false\n";
+    let f = write(&dir, "g.yaml", yaml);
+    let (f, out) = (f.to_str().unwrap(), dir.to_str().unwrap());
+    // the test's stderr is a pipe, as under nohup or a batch scheduler
+    let run = softgrain(&["pipeline", "run", f, "--out", out]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let log = stderr(&run);
+    let percents: Vec<u64> = log
+        .lines()
+        .filter(|l| l.contains("compact bpm-mu0") && l.contains("% after") && l.contains("eta"))
+        .map(|l| {
+            let p = l
+                .split('%')
+                .next()
+                .unwrap()
+                .split_whitespace()
+                .last()
+                .unwrap();
+            p.parse().unwrap()
+        })
+        .collect();
+    // one line per 10% of the strain, in order (the last record may fall short of 100%)
+    assert!(percents.len() >= 9, "{log}");
+    assert!(percents.windows(2).all(|w| w[1] / 10 > w[0] / 10), "{log}");
+    assert!(percents.last() >= Some(&90), "{log}");
+    let quiet = softgrain(&[
+        "pipeline", "run", f, "--out", out, "--from", "compact", "-q",
+    ]);
+    assert!(quiet.status.success(), "{}", stderr(&quiet));
+    assert!(!stderr(&quiet).contains("% after"), "{}", stderr(&quiet));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -115,8 +115,11 @@ impl StageCtx {
         INTERRUPT.load(std::sync::atomic::Ordering::Relaxed)
     }
 
+    /// A progress bar labelled `label` and the node's case (its folder), e.g.
+    /// "compact bpm-mu0".
     pub fn progress(&self, label: &str, total: u64) -> Progress {
-        Progress::new(label, total, self.quiet)
+        let case = self.dir.file_name().and_then(|c| c.to_str()).unwrap_or("");
+        Progress::new(&format!("{label} {case}"), total, self.quiet)
     }
 
     /// Writes a whole output file atomically.
