@@ -152,14 +152,20 @@ fn main() -> ExitCode {
                 jobs,
                 quiet,
             } => {
-                if let Some(n) = jobs
-                    && let Err(e) = rayon::ThreadPoolBuilder::new()
-                        .num_threads(n)
-                        .build_global()
+                // The whole run executes on the pool's threads, so a parallel loop is
+                // joined by a worker instead of handed over from the main thread and
+                // waited for: with one worker, or a core taken by another job, that
+                // hand-over cost a third of a large BPM solve's time (README "Performance").
+                let pool = match rayon::ThreadPoolBuilder::new()
+                    .num_threads(jobs.unwrap_or(0))
+                    .build()
                 {
-                    eprintln!("--jobs {n}: {e}");
-                    return ExitCode::from(2);
-                }
+                    Ok(pool) => pool,
+                    Err(e) => {
+                        eprintln!("--jobs {}: {e}", jobs.unwrap_or(0));
+                        return ExitCode::from(2);
+                    }
+                };
                 let loaded = match config::load(&file, &set) {
                     Ok(l) => l,
                     Err(e) => return input_error(&e),
@@ -176,7 +182,7 @@ fn main() -> ExitCode {
                 }) {
                     eprintln!("warning: Ctrl-C will not save a snapshot: {e}");
                 }
-                match pipeline::run(&loaded, &opts) {
+                match pool.install(|| pipeline::run(&loaded, &opts)) {
                     Ok(_) => ExitCode::SUCCESS,
                     Err(RunError::Input(e)) => input_error(&e),
                     Err(e) => {
