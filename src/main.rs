@@ -154,8 +154,8 @@ fn main() -> ExitCode {
             } => {
                 // The whole run executes on the pool's threads, so a parallel loop is
                 // joined by a worker instead of handed over from the main thread and
-                // waited for: with one worker, or a core taken by another job, that
-                // hand-over cost a third of a large BPM solve's time (README "Performance").
+                // waited for. With one worker and the other core busy, that hand-over took
+                // 40% of a 100-grain BPM relaxation's wall time (README "Performance").
                 let pool = match rayon::ThreadPoolBuilder::new()
                     .num_threads(jobs.unwrap_or(0))
                     .build()
