@@ -36,18 +36,24 @@ def pairs_z(pairs, n_grains):
     return 2 * len(pairs) / n_grains
 
 
-def force_pairs(path, eps):
-    """Grain pairs joined by a contact line with f_n > eps <f_n> (the mean over loaded lines)."""
+def grain_contacts(path):
+    """(grain i, grain j, f_n) of every contact line between two grains' particles."""
     try:
         c = meshio.read(path)
     except KeyError:  # a frame without contacts has no cells
-        return set()
+        return None
     if not c.cells:
-        return set()
+        return None
     lines = c.cells[0].data.astype(int)
-    f = c.cell_data["normal_force"][0]
     g = c.point_data["grain_id"].astype(int)
-    gi, gj = g[lines[:, 0]], g[lines[:, 1]]
+    return g[lines[:, 0]], g[lines[:, 1]], c.cell_data["normal_force"][0]
+
+
+def force_pairs(contacts, eps):
+    """Grain pairs joined by a contact line with f_n > eps <f_n> (the mean over loaded lines)."""
+    if contacts is None:
+        return set()
+    gi, gj, f = contacts
     keep = (gi != gj) & (f > eps * f[f > 0].mean())
     return set(zip(np.minimum(gi, gj)[keep], np.maximum(gi, gj)[keep]))
 
@@ -109,9 +115,10 @@ def main():
         n = g.max() + 1
         row = rows[min(k, len(rows) - 1)]  # a frame and a row every output.every steps
         out = [str(k), row["strain"], row["phi"], f"{float(row['z']):.3f}"]
+        if a.threshold:
+            contacts = grain_contacts(f.replace("frame_", "contacts_"))
         for eps in a.threshold:
-            pairs = force_pairs(f.replace("frame_", "contacts_"), eps)
-            out.append(f"{pairs_z(pairs, n):.3f}")
+            out.append(f"{pairs_z(force_pairs(contacts, eps), n):.3f}")
         out.append(f"{pairs_z(near_pairs(x, g, r, a.gap), n):.3f}")
         if a.tiling:
             out.append(f"{pairs_z(tiling_pairs(x, g, r, a.pixel), n):.3f}")

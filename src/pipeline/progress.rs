@@ -24,7 +24,7 @@ struct Log {
     total: u64,
     start: Instant,
     last_line: Instant,
-    last_percent: u64,
+    /// Position at the last line (0 before the first).
     last_pos: u64,
 }
 
@@ -51,7 +51,6 @@ impl Progress {
                 total: total.max(1),
                 start: now,
                 last_line: now,
-                last_percent: 0,
                 last_pos: 0,
             }))
         });
@@ -77,9 +76,9 @@ impl Log {
     /// 10%, or when the loop advanced and the last line is five minutes old.
     fn line(&mut self, pos: u64, msg: &str) {
         let pos = pos.min(self.total);
-        let percent = pos * 100 / self.total;
+        let percent = |pos: u64| pos * 100 / self.total;
         let now = Instant::now();
-        let due = percent / LOG_PERCENT > self.last_percent / LOG_PERCENT
+        let due = percent(pos) / LOG_PERCENT > percent(self.last_pos) / LOG_PERCENT
             || (pos > self.last_pos && now - self.last_line >= LOG_INTERVAL);
         if !due || pos == 0 {
             return;
@@ -88,13 +87,13 @@ impl Log {
         // Remaining time at the mean rate so far.
         let eta = elapsed.mul_f64((self.total - pos) as f64 / pos as f64);
         eprintln!(
-            "{:>22} {percent:>3}% after {}, eta {} ({msg})",
+            "{:>22} {:>3}% after {}, eta {} ({msg})",
             self.label,
+            percent(pos),
             clock(elapsed),
             clock(eta)
         );
         self.last_line = now;
-        self.last_percent = percent;
         self.last_pos = pos;
     }
 }
