@@ -12,6 +12,9 @@ use serde::{Deserialize, Serialize};
 /// force. Its stiffness is at most k_a = γ F0/a0, so it is stable for h < 2 sqrt(m*/k_a)
 /// ≈ 0.53 t0 with t0 = sqrt(m a0/F0); the compact stage uses h = 0.1 t0 (smallest particle)
 /// by default, five times inside that limit and accurate (METHODS.md §1.9).
+/// Option I (the attraction inside the local solve) is not used: its local problem has
+/// three solutions for some approach velocities once h > t0/√(2θγ) ≈ 0.27 t0, so it would
+/// not allow larger steps (README, "Methods and decisions").
 ///
 /// `rolling` is the optional rolling resistance μ_r between particles of one grain (off, 0,
 /// by default, as in the paper): without it boundary particles turn freely, so friction on

@@ -186,7 +186,8 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                                 "bpm".into()
                             };
                             let bpm = one_of(&bpm, "particle_diameter", r);
-                            let params = json!({"seed": p.seed, "bpm": bpm});
+                            let params = json!({"seed": p.seed, "bpm": bpm,
+                                "version": crate::stages::discretise::BPM_VERSION});
                             (case, params)
                         })
                         .collect()
