@@ -6,13 +6,14 @@
 //! Decisions the paper leaves open (METHODS.md §7), as implemented:
 //! - primary particle diameters: each particle's area uniform in [A_min, A_max];
 //! - grains built by an advancing front (`build`), then relaxed under attraction in the
-//!   discretise stage;
+//!   discretise stage, grain by grain against fixed neighbours (`relax`);
 //! - attraction explicit (option E), cut-off not shifted, h = 0.1 t0 by default;
 //! - grain area: morphological closing with the largest particle radius (`measure`).
 
 pub mod build;
 pub mod law;
 pub mod measure;
+pub mod relax;
 
 pub use build::build_grain;
 pub use law::BpmLaw;

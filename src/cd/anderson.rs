@@ -109,9 +109,12 @@ impl Anderson {
             let wf = self.weight[i] * *f;
             norm += wf * wf;
         }
-        match self.prev_norm {
+        let rhs = match self.prev_norm {
             // the residual grew: the statuses changed, the old directions no longer apply
-            Some(prev) if norm > prev => self.forget(),
+            Some(prev) if norm > prev => {
+                self.forget();
+                None
+            }
             Some(_) => {
                 let (mut dg, mut df) = if self.dg.len() == self.depth {
                     self.gram.pop_front();
@@ -136,31 +139,30 @@ impl Anderson {
                     dg[i] = self.g[i] - self.prev_g[i];
                     df[i] = self.f[i] - self.prev_f[i];
                 }
-                let new: std::collections::VecDeque<f64> = self
-                    .df
-                    .iter()
-                    .map(|col| self.dot(col, &df))
-                    .chain([self.dot(&df, &df)])
-                    .collect();
+                self.dg.push_back(dg);
+                self.df.push_back(df);
+                let (new, rhs) = self.dots();
                 for (row, &v) in self.gram.iter_mut().zip(&new) {
                     row.push_back(v);
                 }
-                self.gram.push_back(new);
-                self.dg.push_back(dg);
-                self.df.push_back(df);
+                self.gram.push_back(new.into());
+                Some(rhs)
             }
-            None => {}
-        }
+            None => None,
+        };
         self.prev_norm = Some(norm);
-        let gamma = self.coefficients();
+        let gamma = rhs.and_then(|b| self.coefficients(b));
         std::mem::swap(&mut self.g, &mut self.prev_g);
         std::mem::swap(&mut self.f, &mut self.prev_f);
         let gamma = gamma?;
-        self.next.copy_from_slice(&self.prev_g);
-        for (col, &c) in self.dg.iter().zip(&gamma) {
-            for (x, d) in self.next.iter_mut().zip(col) {
-                *x -= c * d;
+        // next = g_k - ΔG γ, element by element: one pass over the columns
+        let columns: Vec<&[f64]> = self.dg.iter().map(Vec::as_slice).collect();
+        for (i, x) in self.next.iter_mut().enumerate() {
+            let mut v = self.prev_g[i];
+            for (col, &c) in columns.iter().zip(&gamma) {
+                v -= c * col[i];
             }
+            *x = v;
         }
         Some(|k: usize| {
             let s = 2 * self.slot[k] as usize;
@@ -168,19 +170,32 @@ impl Anderson {
         })
     }
 
-    /// Σ W² a b over the slots.
-    fn dot(&self, a: &[f64], b: &[f64]) -> f64 {
-        let w = &self.weight;
-        (0..a.len()).map(|i| w[i] * w[i] * a[i] * b[i]).sum()
+    /// The Gram matrix's new last row and column, Σ W² ΔF_j ΔF_new for every column j (the
+    /// new one last), and the right-hand side Σ W² ΔF_j f, in one pass over the columns
+    /// (they do not fit in cache at 10⁵ contacts). Each sum runs over the slots in order, as
+    /// a dot product at a time would.
+    fn dots(&self) -> (Vec<f64>, Vec<f64>) {
+        let columns: Vec<&[f64]> = self.df.iter().map(Vec::as_slice).collect();
+        let new = *columns.last().expect("a new column");
+        let (w, f) = (&self.weight, &self.f);
+        // -0.0: the neutral element `Iterator::sum` starts from
+        let mut gram = vec![-0.0; columns.len()];
+        let mut rhs = vec![-0.0; columns.len()];
+        for i in 0..w.len() {
+            let w2 = w[i] * w[i];
+            for ((col, g), r) in columns.iter().zip(&mut gram).zip(&mut rhs) {
+                let a = w2 * col[i];
+                *g += a * new[i];
+                *r += a * f[i];
+            }
+        }
+        (gram, rhs)
     }
 
-    /// γ from the weighted normal equations (ΔFᵀ W² ΔF) γ = ΔFᵀ W² f, with a small
-    /// Tikhonov term for nearly dependent columns.
-    fn coefficients(&self) -> Option<Vec<f64>> {
+    /// γ from the weighted normal equations (ΔFᵀ W² ΔF) γ = ΔFᵀ W² f (`b`, from `dots`), with
+    /// a small Tikhonov term for nearly dependent columns.
+    fn coefficients(&self, b: Vec<f64>) -> Option<Vec<f64>> {
         let m = self.df.len();
-        if m == 0 {
-            return None;
-        }
         let trace: f64 = (0..m).map(|i| self.gram[i][i]).sum();
         if trace <= 0.0 {
             return None;
@@ -188,7 +203,7 @@ impl Anderson {
         let a = nalgebra::DMatrix::from_fn(m, m, |i, j| {
             self.gram[i][j] + if i == j { 1e-10 * trace } else { 0.0 }
         });
-        let b = nalgebra::DVector::from_fn(m, |i, _| self.dot(&self.df[i], &self.f));
+        let b = nalgebra::DVector::from_vec(b);
         let gamma = a.cholesky()?.solve(&b);
         gamma
             .iter()

@@ -4,7 +4,8 @@ use serde::{Deserialize, Serialize};
 /// Rigid disks as structure-of-arrays. Masses are per unit thickness (kg/m), inertia
 /// I = m r²/2 (kg m²/m). `group` is the grain a disk belongs to: disks of one group
 /// interact through the table's same-group law (the BPM cohesion), others through the
-/// other-group law.
+/// other-group law. A body with 1/m = 0 (and 1/I = 0) is fixed: contacts cannot move it, and
+/// it carries no mass or kinetic energy in the sums below.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Bodies {
     pub pos: Vec<V2>,
@@ -46,12 +47,21 @@ impl Bodies {
         1.0 / self.inv_mass[i]
     }
 
+    pub fn is_fixed(&self, i: usize) -> bool {
+        self.inv_mass[i] == 0.0
+    }
+
+    /// The bodies that can move.
+    pub fn movable(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.len()).filter(|&i| !self.is_fixed(i))
+    }
+
     pub fn total_mass(&self) -> f64 {
-        self.inv_mass.iter().map(|im| 1.0 / im).sum()
+        self.movable().map(|i| 1.0 / self.inv_mass[i]).sum()
     }
 
     pub fn kinetic_energy(&self) -> f64 {
-        (0..self.len())
+        self.movable()
             .map(|i| {
                 0.5 * (self.vel[i].norm_squared() / self.inv_mass[i]
                     + self.omega[i] * self.omega[i] / self.inv_inertia[i])
@@ -61,7 +71,7 @@ impl Bodies {
 
     /// Kinetic energy of the centres' motion only (J/m).
     pub fn translational_energy(&self) -> f64 {
-        (0..self.len())
+        self.movable()
             .map(|i| 0.5 * self.vel[i].norm_squared() / self.inv_mass[i])
             .sum()
     }

@@ -48,7 +48,8 @@ impl<L: InteractionLaw> Scene<L> {
         let b = &self.bodies;
         let g = self.params.gravity;
         let h = self.params.dt;
-        let body_power: f64 = (0..b.len())
+        let body_power: f64 = b
+            .movable()
             .map(|i| (b.mass(i) * g + b.force[i]).dot(&b.vel[i]).abs())
             .sum();
         let wall_power: f64 = (self.walls.iter().zip(&self.wall_force))
