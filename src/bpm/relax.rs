@@ -12,7 +12,7 @@
 //! the result does not depend on it.
 
 use super::BpmLaw;
-use crate::cd::{Bodies, CdParams, LawTable, Partner, Scene};
+use crate::cd::{Bodies, CdParams, LawTable, Neighbours, Partner, Scene};
 use crate::geom::V2;
 use rayon::prelude::*;
 
@@ -119,24 +119,15 @@ pub fn relax_grains(
 }
 
 /// For each grain, the other grains whose circles come within `margin` of its own, in
-/// increasing order (a sweep along x over the circles sorted by their left edge).
+/// increasing order (the contact engine's broad phase, over the circles).
 fn neighbours(circles: &[(V2, f64)], margin: f64) -> Vec<Vec<usize>> {
-    let mut by_left: Vec<usize> = (0..circles.len()).collect();
-    let left = |g: usize| circles[g].0.x - circles[g].1;
-    by_left.sort_by(|&a, &b| left(a).total_cmp(&left(b)));
+    let (centres, radii): (Vec<V2>, Vec<f64>) = circles.iter().copied().unzip();
+    let mut list = Neighbours::default();
+    list.update(&centres, &radii, margin, 0.0);
     let mut near = vec![Vec::new(); circles.len()];
-    for (k, &a) in by_left.iter().enumerate() {
-        let (ca, ra) = circles[a];
-        for &b in &by_left[k + 1..] {
-            if left(b) > ca.x + ra + margin {
-                break;
-            }
-            let (cb, rb) = circles[b];
-            if (ca - cb).norm() <= ra + rb + margin {
-                near[a].push(b);
-                near[b].push(a);
-            }
-        }
+    for &(a, b) in &list.pairs {
+        near[a as usize].push(b as usize);
+        near[b as usize].push(a as usize);
     }
     near.iter_mut().for_each(|n| n.sort_unstable());
     near

@@ -24,6 +24,7 @@ mod scene;
 
 pub use bodies::Bodies;
 pub use contact::{Contact, Partner};
+pub use detect::Neighbours;
 pub use law::{Coulomb, InteractionLaw, LawTable};
 pub use nlgs::{COLOURED_MIN, NlgsParams, NlgsReport};
 pub use scene::{CdError, CdParams, Scene, StepReport};

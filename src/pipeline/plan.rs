@@ -82,8 +82,21 @@ impl Node {
     }
 }
 
+/// The version of a stage's computation, hashed into its nodes' names (when not 0) so that a
+/// change of results renames them and earlier checkpoints are not reused. 0 for stages that
+/// have never changed their results at a given format version, so their names stay as they
+/// were before versions existed.
+fn version(stage: Stage, method: Option<Method>) -> u32 {
+    match (stage, method) {
+        (Stage::Analyse, _) => ANALYSIS_VERSION,
+        (Stage::Discretise, Some(Method::Bpm)) => crate::stages::discretise::BPM_VERSION,
+        _ => 0,
+    }
+}
+
 fn node<P: Serialize>(
     stage: Stage,
+    method: Option<Method>,
     case: String,
     params: &P,
     upstream: Vec<usize>,
@@ -93,8 +106,9 @@ fn node<P: Serialize>(
     let mut h = blake3::Hasher::new();
     h.update(stage.name().as_bytes());
     h.update(&FORMAT_VERSION.to_le_bytes());
-    if stage == Stage::Analyse {
-        h.update(&ANALYSIS_VERSION.to_le_bytes());
+    let version = version(stage, method);
+    if version != 0 {
+        h.update(&version.to_le_bytes());
     }
     h.update(&serde_json::to_vec(&params).expect("json"));
     for &u in &upstream {
@@ -106,7 +120,7 @@ fn node<P: Serialize>(
         params,
         upstream,
         hash: h.finalize(),
-        method: None,
+        method,
         source: 0,
     }
 }
@@ -152,7 +166,7 @@ pub fn plan(loaded: &Loaded) -> Vec<Node> {
     }
     ends.extend(plan_scene(&loaded.pipeline, 0, "", &mut nodes));
     if let Some(a) = &loaded.pipeline.analyse {
-        nodes.push(node(Stage::Analyse, "all".into(), a, ends, &nodes));
+        nodes.push(node(Stage::Analyse, None, "all".into(), a, ends, &nodes));
     }
     nodes
 }
@@ -168,7 +182,14 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
     };
     let solver = canonical_solver(&p.solver);
     let prep = json!({"seed": p.seed, "prepare": p.prepare, "solver": solver, "output": p.output});
-    nodes.push(node(Stage::Prepare, case.into(), &prep, vec![], nodes));
+    nodes.push(node(
+        Stage::Prepare,
+        None,
+        case.into(),
+        &prep,
+        vec![],
+        nodes,
+    ));
     let prepared = nodes.len() - 1;
     let mut discretised = Vec::new();
     if let Some(d) = &p.discretise {
@@ -186,8 +207,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                                 "bpm".into()
                             };
                             let bpm = one_of(&bpm, "particle_diameter", r);
-                            let params = json!({"seed": p.seed, "bpm": bpm,
-                                "version": crate::stages::discretise::BPM_VERSION});
+                            let params = json!({"seed": p.seed, "bpm": bpm});
                             (case, params)
                         })
                         .collect()
@@ -197,12 +217,12 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
             for (case, params) in planned {
                 nodes.push(node(
                     Stage::Discretise,
+                    Some(method),
                     case.clone(),
                     &params,
                     vec![prepared],
                     nodes,
                 ));
-                nodes.last_mut().expect("pushed").method = Some(method);
                 discretised.push((nodes.len() - 1, case));
             }
         }
@@ -225,8 +245,15 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                     _ => &solver,
                 };
                 let params = json!({"compact": compact, "solver": solver, "output": p.output});
-                nodes.push(node(Stage::Compact, case, &params, vec![*up], nodes));
-                nodes.last_mut().expect("pushed").method = nodes[*up].method;
+                let method = nodes[*up].method;
+                nodes.push(node(
+                    Stage::Compact,
+                    method,
+                    case,
+                    &params,
+                    vec![*up],
+                    nodes,
+                ));
                 compacted.push(nodes.len() - 1);
             }
         }

@@ -40,8 +40,8 @@ pub struct BpmFigures {
     pub kinetic_energy: f64,
 }
 
-/// Version of the BPM discretisation, hashed into its nodes' names so that checkpoints made
-/// by an earlier version are not reused. 1 (before session 17) relaxed all aggregates in one
+/// Version of the BPM discretisation (`plan::version`), hashed into its nodes' names so that
+/// checkpoints made by an earlier version are not reused. 1 (before session 17) relaxed all aggregates in one
 /// scene, whose one convergence test waited for the slowest grain; 2 (commit c58d3ca only)
 /// relaxed each alone, which let touching aggregates bulge into each other; 3 relaxes each
 /// against its neighbours held fixed (`bpm::relax`).
