@@ -14,9 +14,10 @@
 //! Usage: `cargo bench --bench deposit -- [--sizes 300,30000] [--runs 3]
 //! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]
 //! [--wall-friction 0] [--tolerance 1.666e-4] [--relaxation 1] [--anderson 0]
-//! [--check-every 10]` (disk-wall friction of both engines, `prepare.wall_friction`;
-//! softgrain's NLGS: tolerance, `solver.tolerance`; relaxation ω, `solver.relaxation`;
-//! Anderson depth, `solver.anderson`; sweeps between checks)
+//! [--check-every 10] [--islands]` (disk-wall friction of both engines,
+//! `prepare.wall_friction`; softgrain's NLGS: tolerance, `solver.tolerance`; relaxation ω,
+//! `solver.relaxation`; Anderson depth, `solver.anderson`; sweeps between checks; islands
+//! solved apart, `solver.islands`)
 
 use rapier2d::prelude::*;
 use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
@@ -465,6 +466,7 @@ fn main() {
         }),
         anderson: arg(&args, "--anderson")
             .map_or(defaults::NLGS_ANDERSON, |s| s.parse().expect("--anderson")),
+        islands: args.iter().any(|a| a == "--islands"),
     };
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
@@ -492,11 +494,12 @@ fn main() {
     let exe = std::env::current_exe().expect("own path");
     println!(
         "deposit benchmark: seed {seed}, {runs} run(s) each, budget {budget} s, {} rayon threads, \
-         softgrain NLGS relaxation {}, Anderson depth {}, check every {} sweeps",
+         softgrain NLGS relaxation {}, Anderson depth {}, check every {} sweeps, islands {}",
         rayon::current_num_threads(),
         nlgs.relax,
         nlgs.anderson,
         nlgs.check_every,
+        nlgs.islands,
     );
     let mut table = Vec::new();
     for &n in &sizes {
@@ -518,6 +521,7 @@ fn main() {
                     .args(["--relaxation", &nlgs.relax.to_string()])
                     .args(["--anderson", &nlgs.anderson.to_string()])
                     .args(["--check-every", &nlgs.check_every.to_string()])
+                    .args(nlgs.islands.then_some("--islands"))
                     .stderr(std::process::Stdio::inherit())
                     .output()
                     .expect("child run");

@@ -37,6 +37,7 @@ fn pair(gap: f64, g1: u32, g2: u32, pull: f64) -> Scene<BpmLaw> {
             max_iter: 100,
             relax: 1.0,
             anderson: 0,
+            islands: false,
         },
     };
     Scene::new(b, vec![], laws, params, 1)
@@ -208,6 +209,7 @@ fn rolling_resistance_lets_floor_friction_turn_the_whole_grain() {
                 max_iter: 1000,
                 relax: 1.0,
                 anderson: 0,
+                islands: false,
             },
         };
         let floor_wall = Wall::new(V2::new(-100.0, 0.0), V2::new(100.0, 0.0));

@@ -18,6 +18,7 @@ fn params(dt: f64) -> CdParams {
             max_iter: 10_000,
             relax: 1.0,
             anderson: 0,
+            islands: false,
         },
     }
 }

@@ -65,6 +65,7 @@ fn pair(dt: f64) -> Scene<Bond> {
             max_iter: 1000,
             relax: 1.0,
             anderson: 0,
+            islands: false,
         },
     };
     Scene::new(b, vec![], LawTable::new(bond, bond, vec![]), params, 1)
@@ -157,6 +158,7 @@ fn a_bpm_grain_far_above_its_step_limit_stops_at_once() {
                 max_iter: 5000,
                 relax: 1.0,
                 anderson: 0,
+                islands: false,
             },
         };
         let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, vec![]);

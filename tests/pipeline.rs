@@ -189,11 +189,16 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(hashes(&dir, GRAPH, &["solver.anderson=0"]), base);
     let r = hashes(&dir, GRAPH, &["solver.anderson=8"]);
     assert_eq!(changed(&r).len(), base.len());
+    assert_eq!(hashes(&dir, GRAPH, &["solver.islands=false"]), base);
+    let r = hashes(&dir, GRAPH, &["solver.islands=true"]);
+    assert_eq!(changed(&r).len(), base.len());
     // the compact stage's own solver setting: the BPM compactions only (the MPM node
     // contact does not read it), and nothing when it equals the pipeline's
     let r = hashes(&dir, GRAPH, &["compact.solver.anderson=8"]);
     assert_eq!(changed(&r), cases[4..8].to_vec());
     assert_eq!(hashes(&dir, GRAPH, &["compact.solver.anderson=0"]), base);
+    let r = hashes(&dir, GRAPH, &["compact.solver.islands=true"]);
+    assert_eq!(changed(&r), cases[4..8].to_vec());
     // a case is named by its own friction and particle range, not by the lists: adding a
     // friction value or dropping one leaves the other cases' names (and work) alone
     let more = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.25,0.5]"]);

@@ -339,6 +339,7 @@ fn bpm_compress(g: &discretise::BpmGrains, v: f64, dt_over_t0: f64, strain: f64)
             max_iter: 5000,
             relax: 1.0,
             anderson: 0,
+            islands: false,
         },
     };
     let wall_laws = vec![BpmLaw::Coulomb { mu: 0.0 }; 2];
@@ -543,6 +544,7 @@ fn initial_overlaps_are_kept_not_grown_or_refused_at_step_zero() {
                 max_iter: 5000,
                 relax: 1.0,
                 anderson: 0,
+                islands: false,
             },
         };
         let wall_laws = vec![

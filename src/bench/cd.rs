@@ -34,6 +34,7 @@ fn params(s: &CdSetting, dt: f64, d_min: f64) -> CdParams {
             max_iter: defaults::NLGS_MAX_ITERATIONS,
             relax: defaults::NLGS_RELAXATION,
             anderson: 0,
+            islands: false,
         },
     }
 }

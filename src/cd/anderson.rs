@@ -13,14 +13,12 @@
 //! Convergence is still judged on a plain Gauss-Seidel sweep, so the stopping test, hence
 //! the solution's accuracy, is the same as without acceleration.
 
-/// The history and the block's starting impulses. Vectors are indexed by slot: the
-/// contact of solve position `s` (its index k mapped through `slot`) owns entries 2s, 2s + 1
-/// (p_n, p_t), so the shuffles between blocks do not matter.
+/// The history and the block's starting impulses. Vectors are indexed by slot: the row
+/// given slot `s` at `reset` owns entries 2s, 2s + 1 (p_n, p_t) and keeps its slot through
+/// the shuffles between blocks.
 #[derive(Clone, Debug, Default)]
 pub struct Anderson {
     depth: usize,
-    /// Slot of contact k (`u32::MAX` for contacts not in the solve).
-    slot: Vec<u32>,
     /// Residual weights (W_nn, W_tt) by slot.
     weight: Vec<f64>,
     /// Impulses at the start of the current block (x_k).
@@ -44,20 +42,12 @@ pub struct Anderson {
 
 impl Anderson {
     /// Starts a new solve with an empty history, keeping the buffers' memory (the scene
-    /// keeps one `Anderson` from step to step). `rows`: the contacts in the solve, as
-    /// (k, W_nn, W_tt).
-    pub fn reset(
-        &mut self,
-        depth: usize,
-        n_contacts: usize,
-        rows: impl Iterator<Item = (usize, f64, f64)>,
-    ) {
+    /// keeps one `Anderson` from step to step). `rows`: the diagonal terms (W_nn, W_tt) of
+    /// the contacts in the solve, by slot.
+    pub fn reset(&mut self, depth: usize, rows: impl Iterator<Item = (f64, f64)>) {
         self.depth = depth;
-        self.slot.clear();
-        self.slot.resize(n_contacts, u32::MAX);
         self.weight.clear();
-        for (s, (k, w_nn, w_tt)) in rows.enumerate() {
-            self.slot[k] = s as u32;
+        for (w_nn, w_tt) in rows {
             self.weight.extend([w_nn, w_tt]);
         }
         let n = self.weight.len();
@@ -83,26 +73,26 @@ impl Anderson {
         self.gram.clear();
     }
 
-    fn gather(slot: &[u32], out: &mut [f64], impulses: impl Iterator<Item = (usize, f64, f64)>) {
-        for (k, p_n, p_t) in impulses {
-            let s = 2 * slot[k] as usize;
+    fn gather(out: &mut [f64], impulses: impl Iterator<Item = (usize, f64, f64)>) {
+        for (slot, p_n, p_t) in impulses {
+            let s = 2 * slot;
             out[s] = p_n;
             out[s + 1] = p_t;
         }
     }
 
-    /// Records x_k, the impulses (k, p_n, p_t) at the start of a block.
+    /// Records x_k, the impulses (slot, p_n, p_t) at the start of a block.
     pub fn begin(&mut self, impulses: impl Iterator<Item = (usize, f64, f64)>) {
-        Self::gather(&self.slot, &mut self.start, impulses);
+        Self::gather(&mut self.start, impulses);
     }
 
     /// Given g_k, the block's output, returns the accelerated iterate before projection as
-    /// a function of the contact index k, or None while the history is empty.
+    /// a function of the slot, or None while the history is empty.
     pub fn next(
         &mut self,
         output: impl Iterator<Item = (usize, f64, f64)>,
     ) -> Option<impl Fn(usize) -> (f64, f64) + '_> {
-        Self::gather(&self.slot, &mut self.g, output);
+        Self::gather(&mut self.g, output);
         let mut norm = 0.0;
         for (i, f) in self.f.iter_mut().enumerate() {
             *f = self.g[i] - self.start[i];
@@ -164,8 +154,8 @@ impl Anderson {
             }
             *x = v;
         }
-        Some(|k: usize| {
-            let s = 2 * self.slot[k] as usize;
+        Some(|slot: usize| {
+            let s = 2 * slot;
             (self.next[s], self.next[s + 1])
         })
     }
@@ -238,7 +228,7 @@ mod tests {
             plain = g(&plain);
         }
         let mut aa = Anderson::default();
-        aa.reset(2, 1, std::iter::once((0, 1.0, 1.0)));
+        aa.reset(2, std::iter::once((1.0, 1.0)));
         let mut x = [0.0, 0.0];
         for _ in 0..20 {
             aa.begin(std::iter::once((0, x[0], x[1])));

@@ -3,7 +3,7 @@
 //! off-diagonal Delassus block is ever stored.
 
 use super::anderson::Anderson;
-use super::{Bodies, Contact, InteractionLaw, LawTable, Partner};
+use super::{Bodies, Contact, InteractionLaw, LawTable, PAR_MIN, Partner};
 use crate::geom::{V2, perp};
 use crate::rng::Rng;
 use rayon::prelude::*;
@@ -23,14 +23,21 @@ pub struct NlgsParams {
     /// Anderson acceleration's history depth m over blocks of `check_every` sweeps
     /// (`anderson.rs`); 0 = off, plain (or over-relaxed) NLGS.
     pub anderson: u32,
+    /// Solve each connected component of the contact graph apart, with its own
+    /// convergence test (`Islands`).
+    pub islands: bool,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct NlgsReport {
+    /// Sweeps; with islands, local solves over contacts (each island sweeps until its own
+    /// test passes), rounded up.
     pub iterations: u32,
     pub converged: bool,
     /// The largest of the scaled norms at the last check (≤ 1 when converged).
     pub residual: f64,
+    /// Local solves done: Σ sweeps × contacts, over the islands.
+    pub updates: u64,
 }
 
 /// Lever ℓ of the rolling impulse of a contact between disks of radii `ri` and `rj`
@@ -101,6 +108,8 @@ struct Row {
     i: u32,
     j: u32,
     k: u32,
+    /// Its slot in Anderson's vectors (its position when its solve started).
+    slot: u32,
     law: u16,
     /// false: a frictionless contact whose tangential solve is skipped (p_t stays 0).
     frictional: bool,
@@ -302,10 +311,12 @@ pub struct Scratch {
     dofs: Vec<Dof>,
     rows: Vec<Row>,
     anderson: Anderson,
+    islands: Islands,
 }
 
 /// Solves for the impulses of the contacts listed in `order` (the others keep theirs),
 /// sweeping them in an order shuffled before each check block (coloured: once per step).
+/// With `params.islands`, each connected component of the contact graph is solved apart.
 pub fn solve<L: InteractionLaw>(
     contacts: &mut [Contact],
     b: &mut Bodies,
@@ -315,16 +326,18 @@ pub fn solve<L: InteractionLaw>(
     rng: &mut Rng,
     scratch: &mut Scratch,
 ) -> NlgsReport {
-    let mut report = NlgsReport::default();
     if order.is_empty() {
-        report.converged = true;
-        return report;
+        return NlgsReport {
+            converged: true,
+            ..NlgsReport::default()
+        };
     }
     let nb = b.len() as u32;
     let Scratch {
         dofs,
         rows,
         anderson,
+        islands,
     } = scratch;
     dofs.clear();
     dofs.extend(
@@ -354,6 +367,7 @@ pub fn solve<L: InteractionLaw>(
                 Partner::Wall(w) => nb + w,
             },
             k,
+            slot: 0,
             law: c.law,
             frictional: !data.skip_frictionless || data.laws.get(c.law).friction() > 0.0,
             rolling: data.laws.get(c.law).rolling() > 0.0,
@@ -366,25 +380,60 @@ pub fn solve<L: InteractionLaw>(
             p_r: c.p_r,
         }
     }));
-    let coloured = rows.len() >= COLOURED_MIN;
-    let mut colouring = Colouring::default();
     let sweep = Sweep {
         dofs: Shared(dofs.as_mut_ptr()),
         n_bodies: nb,
         laws: data.laws,
         relax: params.relax,
     };
+    let report = if params.islands && islands.group(rows, b.len()) > 1 {
+        islands.solve(rows, sweep, params, rng)
+    } else {
+        solve_rows(rows, sweep, params, rng, anderson)
+    };
+    for (slot, r) in order.iter_mut().zip(rows.iter()) {
+        *slot = r.k;
+        let c = &mut contacts[r.k as usize];
+        c.p_n = r.p_n;
+        c.p_t = r.p_t;
+        c.p_r = r.p_r;
+    }
+    for (i, d) in dofs[..b.len()].iter().enumerate() {
+        b.vel[i] = d.v;
+        b.omega[i] = d.w;
+    }
+    report
+}
+
+/// Blocks of `check_every` sweeps over `rows` until their QM/16 norms pass, each block
+/// shuffled (coloured: once) and, with Anderson, extrapolated. The caller guarantees that no
+/// other thread touches the bodies of `rows` meanwhile.
+fn solve_rows<L: InteractionLaw>(
+    rows: &mut [Row],
+    sweep: Sweep<L>,
+    params: &NlgsParams,
+    rng: &mut Rng,
+    anderson: &mut Anderson,
+) -> NlgsReport {
+    let mut report = NlgsReport::default();
+    let coloured = rows.len() >= COLOURED_MIN;
+    let mut colouring = Colouring::default();
+    for (s, r) in rows.iter_mut().enumerate() {
+        r.slot = s as u32;
+    }
     // Rolling resistance's third impulse is left out of the accelerated vector, so the
     // acceleration is used only without it.
     let mut anderson = (params.anderson > 0 && !rows.iter().any(|r| r.rolling)).then(|| {
-        let slots = rows.iter().map(|r| (r.k as usize, r.w_nn, r.w_tt));
-        anderson.reset(params.anderson as usize, contacts.len(), slots);
+        anderson.reset(
+            params.anderson as usize,
+            rows.iter().map(|r| (r.w_nn, r.w_tt)),
+        );
         anderson
     });
     let mut first = true;
     loop {
         if let Some(a) = anderson.as_mut() {
-            a.begin(rows.iter().map(|r| (r.k as usize, r.p_n, r.p_t)));
+            a.begin(rows.iter().map(|r| (r.slot as usize, r.p_n, r.p_t)));
         }
         // Shuffling the rows themselves draws the same numbers as shuffling `order` and keeps
         // the sweep's reads of the rows sequential. The coloured sweep shuffles and colours
@@ -392,7 +441,7 @@ pub fn solve<L: InteractionLaw>(
         if !coloured || first {
             rng.shuffle(rows);
             if coloured {
-                colouring.sort(rows, b.len());
+                colouring.sort(rows, sweep.n_bodies as usize);
             }
         }
         first = false;
@@ -402,7 +451,7 @@ pub fn solve<L: InteractionLaw>(
                 colouring.sweep(rows, sweep);
             } else {
                 for r in rows.iter_mut() {
-                    // SAFETY: one thread; every index is within `dofs`.
+                    // SAFETY: one thread on these rows' bodies; every index is within `dofs`.
                     unsafe { update_row(r, sweep) };
                 }
             }
@@ -427,29 +476,137 @@ pub fn solve<L: InteractionLaw>(
             break;
         }
         if let Some(a) = anderson.as_mut()
-            && let Some(x) = a.next(rows.iter().map(|r| (r.k as usize, r.p_n, r.p_t)))
+            && let Some(x) = a.next(rows.iter().map(|r| (r.slot as usize, r.p_n, r.p_t)))
         {
             for r in rows.iter_mut() {
-                let (p_n, p_t) = x(r.k as usize);
-                let (p_n, p_t) = data.laws.get(r.law).project(p_n, p_t);
+                let (p_n, p_t) = x(r.slot as usize);
+                let (p_n, p_t) = sweep.laws.get(r.law).project(p_n, p_t);
                 let p_t = if r.frictional { p_t } else { 0.0 };
-                // SAFETY: one thread; every index is within `dofs`.
-                unsafe { move_impulse(r, sweep.dofs.get(), nb, p_n, p_t) };
+                // SAFETY: as above.
+                unsafe { move_impulse(r, sweep.dofs.get(), sweep.n_bodies, p_n, p_t) };
             }
         }
     }
-    for (slot, r) in order.iter_mut().zip(rows.iter()) {
-        *slot = r.k;
-        let c = &mut contacts[r.k as usize];
-        c.p_n = r.p_n;
-        c.p_t = r.p_t;
-        c.p_r = r.p_r;
-    }
-    for (i, d) in dofs[..b.len()].iter().enumerate() {
-        b.vel[i] = d.v;
-        b.omega[i] = d.w;
-    }
+    report.updates = u64::from(report.iterations) * rows.len() as u64;
     report
+}
+
+/// The connected components ("islands") of the contact graph, bodies joined by their
+/// contacts (walls join nothing: they are never written). Islands share no body, so each
+/// is solved apart, with its own convergence test: an island at rest stops after one
+/// block while another still converges, where one test over all contacts would sweep every
+/// island as long as the slowest. Islands are numbered in the order of their first row and
+/// each shuffles with its own generator, seeded from the step's in that order, so results
+/// do not depend on the number of threads.
+#[derive(Clone, Debug, Default)]
+struct Islands {
+    /// Union-find forest over the bodies.
+    parent: Vec<u32>,
+    /// Island of each root body (`u32::MAX`: none yet).
+    label: Vec<u32>,
+    /// Island of each row.
+    of_row: Vec<u32>,
+    /// `bounds[k]..bounds[k + 1]`: the rows of island k once grouped.
+    bounds: Vec<usize>,
+    sorted: Vec<Row>,
+    anderson: Vec<Anderson>,
+}
+
+impl Islands {
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            // path halving
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+
+    /// Groups `rows` island by island (stable within an island) and returns the number of
+    /// islands.
+    fn group(&mut self, rows: &mut [Row], n_bodies: usize) -> usize {
+        self.parent.clear();
+        self.parent.extend(0..n_bodies as u32);
+        for r in rows.iter() {
+            if (r.j as usize) < n_bodies {
+                let a = Self::find(&mut self.parent, r.i);
+                let b = Self::find(&mut self.parent, r.j);
+                self.parent[a.max(b) as usize] = a.min(b);
+            }
+        }
+        self.label.clear();
+        self.label.resize(n_bodies, u32::MAX);
+        self.of_row.clear();
+        let mut count = 0u32;
+        for r in rows.iter() {
+            let root = Self::find(&mut self.parent, r.i) as usize;
+            if self.label[root] == u32::MAX {
+                self.label[root] = count;
+                count += 1;
+            }
+            self.of_row.push(self.label[root]);
+        }
+        let n = count as usize;
+        if n > 1 {
+            self.bounds.clear();
+            self.bounds.resize(n + 1, 0);
+            for &k in &self.of_row {
+                self.bounds[k as usize + 1] += 1;
+            }
+            for k in 0..n {
+                self.bounds[k + 1] += self.bounds[k];
+            }
+            let mut fill = self.bounds.clone();
+            self.sorted.clear();
+            self.sorted.extend_from_slice(rows);
+            for (r, &k) in self.sorted.iter().zip(&self.of_row) {
+                rows[fill[k as usize]] = *r;
+                fill[k as usize] += 1;
+            }
+        }
+        n
+    }
+
+    /// Solves the islands of grouped `rows`, in parallel when there are enough rows to pay
+    /// for it. The report's sweeps are the work's: local solves over contacts, rounded up.
+    fn solve<L: InteractionLaw>(
+        &mut self,
+        rows: &mut [Row],
+        sweep: Sweep<L>,
+        params: &NlgsParams,
+        rng: &mut Rng,
+    ) -> NlgsReport {
+        let n = self.bounds.len() - 1;
+        let seeds: Vec<u64> = (0..n).map(|_| rng.next_u64()).collect();
+        self.anderson.resize_with(n, Anderson::default);
+        let mut parts = Vec::with_capacity(n);
+        let mut rest = rows;
+        for k in 0..n {
+            let (part, tail) = rest.split_at_mut(self.bounds[k + 1] - self.bounds[k]);
+            parts.push(part);
+            rest = tail;
+        }
+        let one = |((part, anderson), seed): ((&mut [Row], &mut Anderson), u64)| {
+            solve_rows(part, sweep, params, &mut Rng::new(seed), anderson)
+        };
+        let work = parts.into_iter().zip(self.anderson.iter_mut()).zip(seeds);
+        let reports: Vec<NlgsReport> = if self.sorted.len() < PAR_MIN {
+            work.map(one).collect()
+        } else {
+            work.collect::<Vec<_>>().into_par_iter().map(one).collect()
+        };
+        let mut report = NlgsReport {
+            converged: true,
+            ..NlgsReport::default()
+        };
+        for r in reports {
+            report.converged &= r.converged;
+            report.residual = report.residual.max(r.residual);
+            report.updates += r.updates;
+        }
+        report.iterations = report.updates.div_ceil(self.sorted.len() as u64) as u32;
+        report
+    }
 }
 
 /// Greedy colouring of the contact conflict graph in the (shuffled) row order: each row gets
@@ -651,5 +808,45 @@ impl Norms {
         .into_iter()
         .fold(0.0, f64::max)
             / tol
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(i: u32, j: u32) -> Row {
+        Row {
+            i,
+            j,
+            k: 0,
+            slot: 0,
+            law: 0,
+            frictional: true,
+            rolling: false,
+            n: V2::new(0.0, 1.0),
+            shift: 0.0,
+            w_nn: 1.0,
+            w_tt: 1.0,
+            p_n: 0.0,
+            p_t: 0.0,
+            p_r: 0.0,
+        }
+    }
+
+    #[test]
+    fn islands_join_bodies_through_contacts_and_never_through_walls() {
+        // 8 disks, index 8 a wall: 0-1-2 a chain, 3-4 a pair, 5, 6 and 7 each on the wall
+        let pairs = [(0, 1), (3, 4), (5, 8), (1, 2), (6, 8), (7, 8), (4, 3)];
+        let mut rows: Vec<Row> = pairs.iter().map(|&(i, j)| row(i, j)).collect();
+        let mut islands = Islands::default();
+        assert_eq!(islands.group(&mut rows, 8), 5);
+        // numbered by first row, each island's rows in their former order
+        assert_eq!(islands.bounds, [0, 2, 4, 5, 6, 7]);
+        let grouped: Vec<(u32, u32)> = rows.iter().map(|r| (r.i, r.j)).collect();
+        assert_eq!(
+            grouped,
+            [(0, 1), (1, 2), (3, 4), (4, 3), (5, 8), (6, 8), (7, 8)]
+        );
     }
 }

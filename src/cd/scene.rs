@@ -229,7 +229,7 @@ impl<L: InteractionLaw> Scene<L> {
                 &mut self.rng,
                 &mut self.scratch,
             );
-            updates += u64::from(r.iterations) * self.order.len() as u64;
+            updates += r.updates;
             report.iterations += r.iterations;
             report.converged = r.converged;
             report.residual = r.residual;

@@ -74,6 +74,8 @@ pub const NLGS_CHECK_EVERY: u32 = 10;
 pub const NLGS_RELAXATION: f64 = 1.0;
 /// Anderson acceleration's history depth (`NlgsParams::anderson`): 0 is off.
 pub const NLGS_ANDERSON: u32 = 0;
+/// Islands of the contact graph solved apart (`NlgsParams::islands`): off.
+pub const NLGS_ISLANDS: bool = false;
 /// Sweeps after which a step is reported unconverged.
 pub const NLGS_MAX_ITERATIONS: u32 = 5000;
 /// Alert distance in units of the smallest disk diameter (METHODS.md §1.7: 0.05 d_min

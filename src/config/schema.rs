@@ -167,6 +167,9 @@ pub struct Solver {
     /// Anderson acceleration's history depth over blocks of `check_every` sweeps, 0-16:
     /// 0 is off. Not with rolling resistance.
     pub anderson: u32,
+    /// Solve each connected component of the contact graph apart, with its own
+    /// convergence test (off by default: it changes the bits of every multi-island run).
+    pub islands: bool,
     /// Alert distance in units of the smallest diameter.
     pub alert: f64,
     /// Verlet skin in units of the smallest diameter.
@@ -182,6 +185,7 @@ impl Default for Solver {
             max_iterations: d::NLGS_MAX_ITERATIONS,
             relaxation: d::NLGS_RELAXATION,
             anderson: d::NLGS_ANDERSON,
+            islands: d::NLGS_ISLANDS,
             alert: d::ALERT,
             skin: d::SKIN,
         }
@@ -362,6 +366,7 @@ pub struct SolverOverride {
     pub max_iterations: Option<u32>,
     pub relaxation: Option<f64>,
     pub anderson: Option<u32>,
+    pub islands: Option<bool>,
     pub alert: Option<f64>,
     pub skin: Option<f64>,
 }
@@ -376,6 +381,7 @@ impl SolverOverride {
             max_iterations: self.max_iterations.unwrap_or(base.max_iterations),
             relaxation: self.relaxation.unwrap_or(base.relaxation),
             anderson: self.anderson.unwrap_or(base.anderson),
+            islands: self.islands.unwrap_or(base.islands),
             alert: self.alert.unwrap_or(base.alert),
             skin: self.skin.unwrap_or(base.skin),
         }

@@ -134,9 +134,9 @@ fn one_of<S: Serialize, V: Serialize>(section: &S, key: &str, value: V) -> serde
     v
 }
 
-/// The solver section as hashed: `relaxation` and `anderson` (added later) are left out at
-/// their plain-NLGS values 1 and 0, so that the nodes of pipelines that do not set them keep
-/// their names.
+/// The solver section as hashed: `relaxation`, `anderson` and `islands` (added later) are
+/// left out at their plain-NLGS values 1, 0 and false, so that the nodes of pipelines that
+/// do not set them keep their names.
 fn canonical_solver(s: &Solver) -> serde_json::Value {
     let mut v = serde_json::to_value(s).expect("parameters serialise");
     let section = v.as_object_mut().expect("a section");
@@ -145,6 +145,9 @@ fn canonical_solver(s: &Solver) -> serde_json::Value {
     }
     if s.anderson == 0 {
         section.remove("anderson");
+    }
+    if !s.islands {
+        section.remove("islands");
     }
     v
 }

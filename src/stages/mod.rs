@@ -74,6 +74,7 @@ pub(crate) fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> C
             max_iter: solver.max_iterations,
             relax: solver.relaxation,
             anderson: solver.anderson,
+            islands: solver.islands,
         },
     }
 }
