@@ -13,7 +13,7 @@ pub enum Partner {
 /// (p_n, p_t) over the step (N s/m), and the rolling impulse p_r: the moment impulse
 /// ℓ p_r on `i` (−ℓ p_r on `j`), ℓ = r_i r_j/(r_i + r_j), or r_i on a wall (METHODS.md
 /// §1.10). Mean contact force = impulse / h.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Contact {
     pub i: u32,
     pub j: Partner,

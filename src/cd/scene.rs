@@ -96,6 +96,8 @@ pub struct Scene<L> {
     #[serde(skip)]
     scratch: nlgs::Scratch,
     #[serde(skip)]
+    detection: Detection,
+    #[serde(skip)]
     pub(super) energy: EnergyGuard,
 }
 
@@ -122,6 +124,7 @@ impl<L: InteractionLaw> Scene<L> {
             order: Vec::new(),
             in_solve: Vec::new(),
             scratch: nlgs::Scratch::default(),
+            detection: Detection::default(),
             energy: EnergyGuard::default(),
         }
     }
@@ -169,7 +172,8 @@ impl<L: InteractionLaw> Scene<L> {
         };
         self.neighbours
             .update(&pos_tt, &self.bodies.radius, range, skin);
-        let mut contacts = self.detect(&pos_tt, pred, alert);
+        let mut detection = std::mem::take(&mut self.detection);
+        let mut contacts = self.detect(&pos_tt, pred, alert, &mut detection);
         if shortcuts.warm_start {
             warm_start(&mut contacts, &self.contacts);
         }
@@ -317,7 +321,9 @@ impl<L: InteractionLaw> Scene<L> {
                 }
             }
         }
-        self.contacts = contacts;
+        // the last step's list becomes the next step's buffer
+        detection.spare = std::mem::replace(&mut self.contacts, contacts);
+        self.detection = detection;
         self.check_energy()?;
         self.time += h;
         self.steps += 1;
@@ -362,7 +368,7 @@ impl<L: InteractionLaw> Scene<L> {
     }
 
     /// Narrow phase: disk pairs from the Verlet list and disk-wall pairs within range.
-    fn detect(&self, pos: &[V2], pred: f64, alert: f64) -> Vec<Contact> {
+    fn detect(&self, pos: &[V2], pred: f64, alert: f64, buffers: &mut Detection) -> Vec<Contact> {
         let b = &self.bodies;
         let laws = &self.laws;
         let pair = |&(i, j): &(u32, u32)| {
@@ -416,25 +422,37 @@ impl<L: InteractionLaw> Scene<L> {
         };
         // Both lists come out sorted by key (the pair list is sorted, the walls go by disk),
         // so merging them gives the step's contact order without a sort. A small scene
-        // merges them as they are produced, into the one list it returns, sized by the last
-        // step's count.
+        // merges them as they are produced; a large one fills fixed chunks in parallel. Every
+        // list reuses the memory of the last step's (fresh lists of 10⁵ contacts cost page
+        // faults and copies at every step).
         let pairs = &self.neighbours.pairs;
-        let last = self.contacts.len();
+        let mut contacts = std::mem::take(&mut buffers.spare);
+        contacts.clear();
         if pairs.len().max(b.len()) < PAR_MIN {
             merge_sorted(
+                &mut contacts,
                 pairs.iter().filter_map(pair),
                 (0..b.len()).flat_map(wall),
-                last,
-            )
+            );
         } else {
-            let disks: Vec<Contact> = (pairs.par_iter().with_min_len(PAR_MIN))
-                .filter_map(pair)
-                .collect();
-            let walls: Vec<Contact> = ((0..b.len()).into_par_iter().with_min_len(PAR_MIN))
-                .flat_map_iter(wall)
-                .collect();
-            merge_sorted(disks.into_iter(), walls.into_iter(), last)
+            let Detection { disks, walls, .. } = buffers;
+            disks.resize_with(pairs.len().div_ceil(PAR_MIN), Vec::new);
+            (disks.par_iter_mut().zip(pairs.par_chunks(PAR_MIN))).for_each(|(out, chunk)| {
+                out.clear();
+                out.extend(chunk.iter().filter_map(pair));
+            });
+            walls.resize_with(b.len().div_ceil(PAR_MIN), Vec::new);
+            walls.par_iter_mut().enumerate().for_each(|(k, out)| {
+                out.clear();
+                out.extend((k * PAR_MIN..((k + 1) * PAR_MIN).min(b.len())).flat_map(wall));
+            });
+            merge_sorted(
+                &mut contacts,
+                disks.iter().flatten().copied(),
+                walls.iter().flatten().copied(),
+            );
         }
+        contacts
     }
 
     /// Current gap of each stored contact (after the step's position update).
@@ -458,15 +476,23 @@ impl<L: InteractionLaw> Scene<L> {
     }
 }
 
-/// One list sorted by key from two sorted by key (contact keys are unique), allocated once
-/// for at least `expected` contacts or the two lists' known lengths.
+/// Detection's lists, kept from step to step for their memory: the disk pairs' and the
+/// disk-wall contacts' chunks of a large scene, and the last step's contact list, which the
+/// next step's merge fills.
+#[derive(Clone, Debug, Default)]
+struct Detection {
+    disks: Vec<Vec<Contact>>,
+    walls: Vec<Vec<Contact>>,
+    spare: Vec<Contact>,
+}
+
+/// Appends to `contacts` one list sorted by key from two sorted by key (contact keys are
+/// unique).
 fn merge_sorted(
+    contacts: &mut Vec<Contact>,
     disks: impl Iterator<Item = Contact>,
     walls: impl Iterator<Item = Contact>,
-    expected: usize,
-) -> Vec<Contact> {
-    let known = disks.size_hint().0 + walls.size_hint().0;
-    let mut contacts = Vec::with_capacity(expected.max(known));
+) {
     let mut walls = walls.peekable();
     for c in disks {
         while let Some(w) = walls.next_if(|w| w.key() < c.key()) {
@@ -476,7 +502,6 @@ fn merge_sorted(
     }
     contacts.extend(walls);
     debug_assert!(contacts.is_sorted_by_key(Contact::key));
-    contacts
 }
 
 /// Copies each previous impulse onto the new contact with the same key (both lists sorted).
