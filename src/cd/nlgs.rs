@@ -279,7 +279,8 @@ unsafe fn update_rolling(r: &mut Row, mu_r: f64, dofs: *mut Dof, n_bodies: u32) 
 #[derive(Clone, Copy)]
 struct Shared(*mut Dof);
 // SAFETY: the coloured sweep only hands rows of one colour (pairwise body-disjoint) to
-// concurrent threads, so no body is written by two threads or read while written.
+// concurrent threads, and the islands' solves rows of different islands (no body in
+// common), so no body is written by two threads or read while written.
 unsafe impl Send for Shared {}
 unsafe impl Sync for Shared {}
 
@@ -576,7 +577,7 @@ impl Islands {
         params: &NlgsParams,
         rng: &mut Rng,
     ) -> NlgsReport {
-        let n = self.bounds.len() - 1;
+        let (n, total) = (self.bounds.len() - 1, rows.len());
         let seeds: Vec<u64> = (0..n).map(|_| rng.next_u64()).collect();
         self.anderson.resize_with(n, Anderson::default);
         let mut parts = Vec::with_capacity(n);
@@ -590,7 +591,7 @@ impl Islands {
             solve_rows(part, sweep, params, &mut Rng::new(seed), anderson)
         };
         let work = parts.into_iter().zip(self.anderson.iter_mut()).zip(seeds);
-        let reports: Vec<NlgsReport> = if self.sorted.len() < PAR_MIN {
+        let reports: Vec<NlgsReport> = if total < PAR_MIN {
             work.map(one).collect()
         } else {
             work.collect::<Vec<_>>().into_par_iter().map(one).collect()
@@ -604,7 +605,7 @@ impl Islands {
             report.residual = report.residual.max(r.residual);
             report.updates += r.updates;
         }
-        report.iterations = report.updates.div_ceil(self.sorted.len() as u64) as u32;
+        report.iterations = report.updates.div_ceil(total as u64) as u32;
         report
     }
 }
