@@ -549,21 +549,8 @@ impl Islands {
         }
         let n = count as usize;
         if n > 1 {
-            self.bounds.clear();
-            self.bounds.resize(n + 1, 0);
-            for &k in &self.of_row {
-                self.bounds[k as usize + 1] += 1;
-            }
-            for k in 0..n {
-                self.bounds[k + 1] += self.bounds[k];
-            }
-            let mut fill = self.bounds.clone();
-            self.sorted.clear();
-            self.sorted.extend_from_slice(rows);
-            for (r, &k) in self.sorted.iter().zip(&self.of_row) {
-                rows[fill[k as usize]] = *r;
-                fill[k as usize] += 1;
-            }
+            let class = self.of_row.iter().map(|&k| k as usize);
+            sort_by_class(rows, n, class, &mut self.bounds, &mut self.sorted);
         }
         n
     }
@@ -610,6 +597,32 @@ impl Islands {
     }
 }
 
+/// Stable counting sort of `rows` by class (`classes` gives each row's, all below `n`):
+/// `bounds[c]..bounds[c + 1]` are then the rows of class c. `scratch` holds a copy.
+fn sort_by_class(
+    rows: &mut [Row],
+    n: usize,
+    classes: impl Iterator<Item = usize> + Clone,
+    bounds: &mut Vec<usize>,
+    scratch: &mut Vec<Row>,
+) {
+    bounds.clear();
+    bounds.resize(n + 1, 0);
+    for c in classes.clone() {
+        bounds[c + 1] += 1;
+    }
+    for c in 0..n {
+        bounds[c + 1] += bounds[c];
+    }
+    let mut fill = bounds.clone();
+    scratch.clear();
+    scratch.extend_from_slice(rows);
+    for (r, c) in scratch.iter().zip(classes) {
+        rows[fill[c]] = *r;
+        fill[c] += 1;
+    }
+}
+
 /// Greedy colouring of the contact conflict graph in the (shuffled) row order: each row gets
 /// the smallest colour not yet used at either of its disks (walls are never written, so they
 /// do not conflict). Rows are then stably sorted by colour.
@@ -631,7 +644,6 @@ impl Colouring {
         self.used.clear();
         self.used.resize(n_bodies, 0);
         self.colour.clear();
-        let mut count = [0usize; 65];
         for r in rows.iter() {
             let mut mask = self.used[r.i as usize];
             let j = r.j as usize;
@@ -646,21 +658,9 @@ impl Colouring {
                 }
             }
             self.colour.push(c);
-            count[c as usize] += 1;
         }
-        self.bounds.clear();
-        self.bounds.push(0);
-        for c in count {
-            let last = *self.bounds.last().expect("non-empty");
-            self.bounds.push(last + c);
-        }
-        let mut fill = self.bounds.clone();
-        self.scratch.clear();
-        self.scratch.extend_from_slice(rows);
-        for (r, &c) in self.scratch.iter().zip(&self.colour) {
-            rows[fill[c as usize]] = *r;
-            fill[c as usize] += 1;
-        }
+        let class = self.colour.iter().map(|&c| c as usize);
+        sort_by_class(rows, 65, class, &mut self.bounds, &mut self.scratch);
     }
 
     fn classes(&self) -> impl Iterator<Item = (usize, std::ops::Range<usize>)> + '_ {
