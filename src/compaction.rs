@@ -7,6 +7,11 @@ use crate::geom::V2;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 
+/// Version of a packing's compaction (`plan::version`), hashed into its nodes' names so that
+/// checkpoints made by an earlier version are not reused: 1 lays the deposit out with each
+/// grain's true extents and lifts it out of the floor (`unjammed_layout`).
+pub const PACKING_VERSION: u32 = 1;
+
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -25,32 +30,41 @@ impl BoxGeometry {
 /// The paper starts compaction from an unjammed state at Φ0 = 0.65 (Fig. 8a), looser than any
 /// rigid-disk deposit (≈ 0.80). Decision: the top wall is placed at h0 = `area` / (Φ0 L), with
 /// `area` the grains' total area in the convention Φ is reported in, and the deposited
-/// centres are stretched vertically by s = h0 / h_deposit (x unchanged), so the grains fill
-/// the box with the deposit's neighbourhoods but no vertical contact. `reach` is each grain's
-/// extent from its centre. Returns the new centres and the box; an error if the deposit is
-/// already looser than Φ0.
+/// centres are stretched vertically (x unchanged), so the grains fill the box with the
+/// deposit's neighbourhoods but no vertical contact. Grain k reaches `below[k]` under its
+/// centre and `above[k]` over it (a relaxed BPM aggregate is not a disk: use its particles'
+/// extents). With lo the lowest point of the deposit (clamped to ≤ 0: a deposit that sinks
+/// into the floor by a solver tolerance is lifted out) and hi its highest, y ↦ (y − lo) h0 /
+/// (hi − lo). Returns the new centres and the box; an error if the deposit is already
+/// looser than Φ0.
 pub fn unjammed_layout(
     centres: &[V2],
-    reach: &[f64],
+    below: &[f64],
+    above: &[f64],
     area: f64,
     width: f64,
     phi0: f64,
 ) -> Result<(Vec<V2>, BoxGeometry), String> {
     let h0 = area / (phi0 * width);
-    let top = centres
-        .iter()
-        .zip(reach)
-        .map(|(c, r)| c.y + r)
-        .fold(0.0, f64::max);
-    if h0 < top {
+    let extreme = |f: fn(f64, f64) -> f64, start: f64, side: &[f64], sign: f64| {
+        (centres.iter().zip(side)).fold(start, |m, (c, e)| f(m, c.y + sign * e))
+    };
+    let lo = extreme(f64::min, 0.0, below, -1.0);
+    let hi = extreme(f64::max, 0.0, above, 1.0);
+    if h0 < hi - lo {
         return Err(format!(
-            "compact.initial_phi = {phi0} asks for a box of height {h0:.4e} m, lower than the deposit ({top:.4e} m, Φ = {:.3}): choose a smaller value",
-            area / (width * top)
+            "compact.initial_phi = {phi0} asks for a box of height {h0:.4e} m, lower than the deposit ({:.4e} m, Φ = {:.3}): choose a smaller value",
+            hi - lo,
+            area / (width * (hi - lo))
         ));
     }
-    // s y + r <= s (y + r) <= h0 for s >= 1: every grain stays inside the box
-    let s = h0 / top;
-    let moved = centres.iter().map(|c| V2::new(c.x, c.y * s)).collect();
+    // with s = h0 / (hi − lo) ≥ 1 and c.y − lo ≥ below ≥ 0: (c.y − lo) s − below ≥ 0 and
+    // (c.y − lo) s + above ≤ s (hi − lo) = h0, so every grain stays inside the box
+    let s = h0 / (hi - lo);
+    let moved = centres
+        .iter()
+        .map(|c| V2::new(c.x, (c.y - lo) * s))
+        .collect();
     Ok((moved, BoxGeometry { width, h0 }))
 }
 
@@ -383,13 +397,38 @@ mod tests {
         let centres = [V2::new(1.0, 1.0), V2::new(3.0, 1.0), V2::new(2.0, 2.2)];
         let width = 4.0;
         let area: f64 = radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
-        let (moved, b) = unjammed_layout(&centres, &radii, area, width, 0.3).unwrap();
+        let (moved, b) = unjammed_layout(&centres, &radii, &radii, area, width, 0.3).unwrap();
         assert!((area / (b.width * b.h0) - 0.3).abs() < 1e-12);
         for (c, r) in moved.iter().zip(radii) {
             assert!(c.y - r >= -1e-12 && c.y + r <= b.h0 + 1e-12);
         }
         // horizontal neighbours keep their distance
         assert!(((moved[1] - moved[0]).norm() - 2.0).abs() < 1e-12);
-        assert!(unjammed_layout(&centres, &radii, area, width, 0.9).is_err());
+        assert!(unjammed_layout(&centres, &radii, &radii, area, width, 0.9).is_err());
+    }
+
+    /// Grains that are not disks: the first reaches 0.2 past the floor, the third only 0.3
+    /// above its centre. At the deposit's own Φ the box is exactly the deposit's extent, lifted
+    /// out of the floor; a disk check (below = above = reach) would have refused it.
+    #[test]
+    fn unjammed_layout_lifts_a_deposit_out_of_the_floor_and_uses_true_extents() {
+        let centres = [V2::new(1.0, 1.0), V2::new(3.0, 1.0), V2::new(2.0, 2.2)];
+        let below = [1.2, 1.0, 0.5];
+        let above = [1.0, 1.0, 0.3];
+        let (width, area) = (4.0, 3.0);
+        let (lo, hi) = (-0.2, 2.5);
+        let phi_deposit = area / (width * (hi - lo));
+        let (moved, b) =
+            unjammed_layout(&centres, &below, &above, area, width, phi_deposit).unwrap();
+        assert!((b.h0 - (hi - lo)).abs() < 1e-12);
+        let bottom = (moved.iter().zip(below)).map(|(c, e)| c.y - e);
+        let top = (moved.iter().zip(above)).map(|(c, e)| c.y + e);
+        assert!(bottom.fold(f64::INFINITY, f64::min).abs() < 1e-12);
+        assert!((top.fold(0.0, f64::max) - b.h0).abs() < 1e-12);
+        let reach = [1.2, 1.0, 0.5];
+        assert!(unjammed_layout(&centres, &reach, &reach, area, width, phi_deposit).is_err());
+        assert!(
+            unjammed_layout(&centres, &below, &above, area, width, 1.01 * phi_deposit).is_err()
+        );
     }
 }

@@ -85,11 +85,12 @@ impl Node {
 /// The version of a stage's computation, hashed into its nodes' names (when not 0) so that a
 /// change of results renames them and earlier checkpoints are not reused. 0 for stages that
 /// have never changed their results at a given format version, so their names stay as they
-/// were before versions existed.
-fn version(stage: Stage, method: Option<Method>) -> u32 {
-    match (stage, method) {
-        (Stage::Analyse, _) => ANALYSIS_VERSION,
-        (Stage::Discretise, Some(Method::Bpm)) => crate::stages::discretise::BPM_VERSION,
+/// were before versions existed. `layout` is the scene's (None for the analysis).
+fn version(stage: Stage, method: Option<Method>, layout: Option<Layout>) -> u32 {
+    match (stage, method, layout) {
+        (Stage::Analyse, _, _) => ANALYSIS_VERSION,
+        (Stage::Discretise, Some(Method::Bpm), _) => crate::stages::discretise::BPM_VERSION,
+        (Stage::Compact, _, Some(Layout::Packing)) => crate::compaction::PACKING_VERSION,
         _ => 0,
     }
 }
@@ -97,6 +98,7 @@ fn version(stage: Stage, method: Option<Method>) -> u32 {
 fn node<P: Serialize>(
     stage: Stage,
     method: Option<Method>,
+    layout: Option<Layout>,
     case: String,
     params: &P,
     upstream: Vec<usize>,
@@ -106,7 +108,7 @@ fn node<P: Serialize>(
     let mut h = blake3::Hasher::new();
     h.update(stage.name().as_bytes());
     h.update(&FORMAT_VERSION.to_le_bytes());
-    let version = version(stage, method);
+    let version = version(stage, method, layout);
     if version != 0 {
         h.update(&version.to_le_bytes());
     }
@@ -169,7 +171,15 @@ pub fn plan(loaded: &Loaded) -> Vec<Node> {
     }
     ends.extend(plan_scene(&loaded.pipeline, 0, "", &mut nodes));
     if let Some(a) = &loaded.pipeline.analyse {
-        nodes.push(node(Stage::Analyse, None, "all".into(), a, ends, &nodes));
+        nodes.push(node(
+            Stage::Analyse,
+            None,
+            None,
+            "all".into(),
+            a,
+            ends,
+            &nodes,
+        ));
     }
     nodes
 }
@@ -188,6 +198,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
     nodes.push(node(
         Stage::Prepare,
         None,
+        Some(p.prepare.layout),
         case.into(),
         &prep,
         vec![],
@@ -221,6 +232,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                 nodes.push(node(
                     Stage::Discretise,
                     Some(method),
+                    Some(p.prepare.layout),
                     case.clone(),
                     &params,
                     vec![prepared],
@@ -252,6 +264,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                 nodes.push(node(
                     Stage::Compact,
                     method,
+                    Some(p.prepare.layout),
                     case,
                     &params,
                     vec![*up],

@@ -91,14 +91,17 @@ fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running,
     for (x, w) in centre.iter_mut().zip(&weight) {
         *x /= *w;
     }
-    let mut reach = vec![0.0f64; grains];
+    // how far each aggregate reaches under and over its centre
+    let (mut below, mut above) = (vec![0.0f64; grains], vec![0.0f64; grains]);
     for i in 0..b.len() {
         let k = b.group[i] as usize;
-        reach[k] = reach[k].max((b.pos[i] - centre[k]).norm() + b.radius[i]);
+        let dy = b.pos[i].y - centre[k].y;
+        below[k] = below[k].max(b.radius[i] - dy);
+        above[k] = above[k].max(dy + b.radius[i]);
     }
     let area0: f64 = grain_areas(&b, grains).iter().sum();
     let (moved, geometry) =
-        compaction::unjammed_layout(&centre, &reach, area0, g.box_width, c.initial_phi)?;
+        compaction::unjammed_layout(&centre, &below, &above, area0, g.box_width, c.initial_phi)?;
     for i in 0..b.len() {
         let k = b.group[i] as usize;
         b.pos[i] += moved[k] - centre[k];

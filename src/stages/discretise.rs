@@ -44,8 +44,9 @@ pub struct BpmFigures {
 /// checkpoints made by an earlier version are not reused. 1 (before session 17) relaxed all aggregates in one
 /// scene, whose one convergence test waited for the slowest grain; 2 (commit c58d3ca only)
 /// relaxed each alone, which let touching aggregates bulge into each other; 3 relaxes each
-/// against its neighbours held fixed (`bpm::relax`).
-pub const BPM_VERSION: u32 = 3;
+/// against its neighbours held fixed (`bpm::relax`); 4 also holds them inside the deposit's
+/// box walls.
+pub const BPM_VERSION: u32 = 4;
 
 /// Time scale of the attraction: t0 = sqrt(m a0 / F0) for the smallest particle.
 pub fn t0(b: &Bodies, f0: f64) -> f64 {
@@ -92,7 +93,9 @@ pub fn run_bpm(
     let t0 = t0(&bodies, bpm.f0);
     let d_min = range[0];
     let params = super::cd_params(&p.solver, defaults::BPM_STEP * t0, 0.0, d_min);
-    let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, vec![]);
+    // the deposit's walls hold the aggregates in the box, frictionless as in the compaction
+    let wall_laws = vec![BpmLaw::Coulomb { mu: 0.0 }; prep.walls.len()];
+    let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, wall_laws);
     let circles: Vec<(V2, f64)> = (prep.bodies.pos.iter().copied())
         .zip(prep.bodies.radius.iter().copied())
         .collect();
@@ -101,6 +104,7 @@ pub fn run_bpm(
         bodies: &bodies,
         counts: &counts,
         circles: &circles,
+        walls: &prep.walls,
     };
     let relaxed = bpm::relax::relax_grains(
         grains,

@@ -171,8 +171,14 @@ pub fn compact(
             let centres: Vec<V2> = g.centres.iter().map(|c| V2::new(c[0], c[1])).collect();
             // MPM seeding gives Σ v_p = π R² per grain exactly: the nominal areas are Φ's
             let area: f64 = g.radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
-            let (moved, geometry) =
-                compaction::unjammed_layout(&centres, &g.radii, area, g.box_width, c.initial_phi)?;
+            let (moved, geometry) = compaction::unjammed_layout(
+                &centres,
+                &g.radii,
+                &g.radii,
+                area,
+                g.box_width,
+                c.initial_phi,
+            )?;
             let moved: Vec<[f64; 2]> = moved.iter().map(|c| [c.x, c.y]).collect();
             let prm = params(
                 g,
