@@ -176,11 +176,11 @@ fn main() -> ExitCode {
                     until,
                     quiet,
                 };
-                // Ctrl-C: a long stage saves a snapshot and stops at its next step.
+                // Ctrl-C, SIGTERM, SIGHUP: a long stage saves a snapshot and stops at its next step.
                 if let Err(e) = ctrlc::set_handler(|| {
                     pipeline::INTERRUPT.store(true, std::sync::atomic::Ordering::Relaxed);
                 }) {
-                    eprintln!("warning: Ctrl-C will not save a snapshot: {e}");
+                    eprintln!("warning: Ctrl-C and SIGTERM will not save a snapshot: {e}");
                 }
                 match pool.install(|| pipeline::run(&loaded, &opts)) {
                     Ok(_) => ExitCode::SUCCESS,

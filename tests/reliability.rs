@@ -172,7 +172,17 @@ fn an_mpm_packing_killed_several_times_ends_as_an_uninterrupted_one() {
 
 #[test]
 fn ctrl_c_saves_a_snapshot_and_stops_within_a_second() {
-    let dir = temp_dir("sigint");
+    signal_saves_a_snapshot_and_stops_within_a_second("INT");
+}
+
+/// SIGTERM is what `kill` and batch schedulers (at a job's time limit) send.
+#[test]
+fn sigterm_saves_a_snapshot_and_stops_within_a_second() {
+    signal_saves_a_snapshot_and_stops_within_a_second("TERM");
+}
+
+fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
+    let dir = temp_dir(&format!("sig{}", signal.to_lowercase()));
     let file = write(
         &dir,
         "g.yaml",
@@ -191,7 +201,7 @@ fn ctrl_c_saves_a_snapshot_and_stops_within_a_second() {
         std::thread::sleep(Duration::from_millis(20));
     }
     let _ = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args([&format!("-{signal}"), &child.id().to_string()])
         .status();
     let sent = Instant::now();
     let status = child.wait().unwrap();
