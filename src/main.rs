@@ -131,6 +131,9 @@ fn main() -> ExitCode {
         Command::Pipeline { action } => match action {
             PipelineAction::Status { file, out, set } => match config::load(&file, &set) {
                 Ok(loaded) => {
+                    if let Some(pid) = pipeline::running(&loaded, &out) {
+                        println!("a run (pid {pid}) is writing to this folder now");
+                    }
                     for (node, word) in pipeline::status(&loaded, &out) {
                         println!(
                             "{:<10} {:<36} {}  {word}",

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{checkpoints, softgrain, stderr, temp_dir, write};
+use common::{checkpoints, softgrain, stderr, stdout, temp_dir, write};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -200,6 +200,21 @@ fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
         );
         std::thread::sleep(Duration::from_millis(20));
     }
+    // `status` names the run that holds the folder
+    let status_of = |dir: &Path| {
+        stdout(&softgrain(&[
+            "pipeline",
+            "status",
+            file.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+        ]))
+    };
+    let now = status_of(&dir);
+    assert!(
+        now.contains(&format!("a run (pid {}) is writing", child.id())),
+        "{now}"
+    );
     let _ = Command::new("kill")
         .args([&format!("-{signal}"), &child.id().to_string()])
         .status();
@@ -218,7 +233,37 @@ fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
         .unwrap()
         .flatten()
         .collect();
-    assert_eq!(snaps.len(), 1);
+    // the snapshot and its note (where it stood, the wall time so far)
+    assert_eq!(snaps.len(), 2);
+    let after = status_of(&dir);
+    let line = after.lines().find(|l| l.starts_with("compact")).unwrap();
+    assert!(
+        line.contains("missing, snapshot at ") && line.contains("(ε = "),
+        "{after}"
+    );
+    assert!(!after.contains("is writing"), "{after}");
+    // resumed to the end, the stage counts the interrupted run's time too
+    let done = softgrain(&[
+        "pipeline",
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(done.status.success(), "{}", stderr(&done));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("g/compact/bpm-mu0/stage.json")).unwrap())
+            .unwrap();
+    let (total, last) = (
+        json["wall_s"].as_f64().unwrap(),
+        json["wall_s_last_run"].as_f64().unwrap(),
+    );
+    assert!(total > last && last > 0.0, "{json}");
+    assert_eq!(
+        std::fs::read_dir(dir.join("g/snapshots")).unwrap().count(),
+        0
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

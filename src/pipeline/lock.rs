@@ -62,6 +62,20 @@ impl Lock {
     }
 }
 
+/// The pid a run holding the lock at `path` wrote there, if a run holds it now. Probes
+/// with a shared lock, released at once: a run starting at that instant would be refused.
+pub fn holder(path: &Path) -> Option<String> {
+    let mut file = File::open(path).ok()?;
+    match file.try_lock_shared() {
+        Err(TryLockError::WouldBlock) => {
+            let mut pid = String::new();
+            let _ = file.read_to_string(&mut pid);
+            Some(pid.trim().to_string())
+        }
+        _ => None,
+    }
+}
+
 impl Drop for Lock {
     /// Removes the file, then releases the lock by closing it (the field drops after this).
     fn drop(&mut self) {

@@ -57,6 +57,16 @@ impl Progress {
         Progress { bar, log }
     }
 
+    /// Where the loop stands, e.g. "40% (ε = 0.008, 13 sweeps/step)".
+    pub fn describe(&self) -> String {
+        let total = self.bar.length().unwrap_or(0).max(1);
+        let percent = 100 * self.bar.position().min(total) / total;
+        match self.bar.message() {
+            m if m.is_empty() => format!("{percent}%"),
+            m => format!("{percent}% ({m})"),
+        }
+    }
+
     pub fn set(&self, pos: u64, msg: impl Into<String>) {
         let msg = msg.into();
         if let Some(log) = &self.log {

@@ -197,12 +197,12 @@ pub fn run(
             );
         }
         if p.output.snapshot_every > 0 && st.scene.steps % p.output.snapshot_every == 0 {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
             ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
                 .map_err(io)?;
         }
         if ctx.interrupted() {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }

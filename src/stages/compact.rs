@@ -200,13 +200,13 @@ pub fn run_bpm(
             bar.set((strain * 1e4) as u64, format!("ε = {strain:.3}"));
         }
         if p.output.snapshot_every > 0 && st.scene.steps % p.output.snapshot_every == 0 {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
             // the rows so far, for a look at a long run while it goes on
             ctx.write("timeseries.csv", csv(&st.rows).as_bytes())
                 .map_err(io)?;
         }
         if ctx.interrupted() {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }

@@ -238,10 +238,10 @@ pub fn compact(
             }
         }
         if p.output.snapshot_every > 0 && steps % p.output.snapshot_every == 0 {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
         }
         if ctx.interrupted() {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }

@@ -149,10 +149,10 @@ pub fn compact(
             write_frame(ctx, &mut run).map_err(io)?;
         }
         if p.output.snapshot_every > 0 && steps % p.output.snapshot_every == 0 {
-            ctx.save_snapshot(&run).map_err(io)?;
+            ctx.save_snapshot(&run, &bar).map_err(io)?;
         }
         if ctx.interrupted() {
-            ctx.save_snapshot(&run).map_err(io)?;
+            ctx.save_snapshot(&run, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }

@@ -121,10 +121,10 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
             output(p, ctx, &mut st).map_err(io)?;
         }
         if p.output.snapshot_every > 0 && st.scene.steps % p.output.snapshot_every == 0 {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
         }
         if ctx.interrupted() {
-            ctx.save_snapshot(&st).map_err(io)?;
+            ctx.save_snapshot(&st, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
         }
         if st.scene.steps % 50 == 0 {
