@@ -54,6 +54,12 @@ fn spawn(file: &Path, out: &Path) -> std::process::Child {
         .unwrap()
 }
 
+/// `softgrain pipeline run FILE --out OUT -q`, waited for.
+fn run_quietly(file: &Path, out: &Path) -> std::process::Output {
+    let (file, out) = (file.to_str().unwrap(), out.to_str().unwrap());
+    softgrain(&["pipeline", "run", file, "--out", out, "-q"])
+}
+
 fn files(run: &Path, rel: &str) -> Vec<u8> {
     std::fs::read(run.join(rel)).unwrap()
 }
@@ -79,14 +85,7 @@ fn killed_runs_end_as_uninterrupted(yaml: &str, tag: &str, kills_ms: &[u64], com
     let dir = temp_dir(tag);
     let file = write(&dir, "g.yaml", yaml);
     let clean = dir.join("clean");
-    let o = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        clean.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = run_quietly(&file, &clean);
     assert!(o.status.success(), "{}", stderr(&o));
     let killed = dir.join("killed");
     for &ms in kills_ms {
@@ -98,14 +97,7 @@ fn killed_runs_end_as_uninterrupted(yaml: &str, tag: &str, kills_ms: &[u64], com
         let _ = child.wait();
     }
     // a killed run's lock went with its process: the next run takes it and finishes
-    let o = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        killed.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = run_quietly(&file, &killed);
     assert!(o.status.success(), "{}", stderr(&o));
     let (a, b) = (
         checkpoints(&clean.join("g")),
@@ -243,14 +235,7 @@ fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
     );
     assert!(!after.contains("is writing"), "{after}");
     // resumed to the end, the stage counts the interrupted run's time too
-    let done = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-        "-q",
-    ]);
+    let done = run_quietly(&file, &dir);
     assert!(done.status.success(), "{}", stderr(&done));
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("g/compact/bpm-mu0/stage.json")).unwrap())
@@ -276,14 +261,7 @@ fn a_second_run_on_the_same_folder_is_refused_while_the_first_holds_the_lock() {
     let held = std::fs::File::create(dir.join("g/.lock")).unwrap();
     held.try_lock().unwrap();
     std::fs::write(dir.join("g/.lock"), format!("{}\n", std::process::id())).unwrap();
-    let o = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = run_quietly(&file, &dir);
     assert_eq!(o.status.code(), Some(1));
     assert!(
         stderr(&o).contains("another softgrain run"),
@@ -293,14 +271,7 @@ fn a_second_run_on_the_same_folder_is_refused_while_the_first_holds_the_lock() {
     // the file a dead holder leaves (its lock went with its process) does not block
     drop(held);
     std::fs::write(dir.join("g/.lock"), "4000000000\n").unwrap();
-    let o = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = run_quietly(&file, &dir);
     assert!(o.status.success(), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -348,14 +319,7 @@ fn a_failed_contact_solution_stops_the_run_early_and_saves_nothing() {
     // can only be a bad packing; the run must say so at once, not run on with it
     let yaml = "name: f\nprepare:\n  layout: explicit\n  duration: 0.1\n  time_step: 1.0e-4\n  bodies:\n    - position: [0.0, 0.01]\n      radius: 0.005\n    - position: [0.003, 0.01]\n      radius: 0.005\n  walls:\n    - from: [-1.0, 0.0]\n      to: [1.0, 0.0]\n";
     let file = write(&dir, "f.yaml", yaml);
-    let o = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = run_quietly(&file, &dir);
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
     assert!(
