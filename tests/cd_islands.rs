@@ -1,28 +1,20 @@
 //! Islands of the contact graph solved apart (`solver.islands`): the same solution, each
 //! island converged on its own, less work, and no dependence on the thread count.
 
-use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
+mod common;
+
+use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, Scene};
 use softgrain::geom::{V2, Wall};
 
 const G: f64 = 9.81;
 const DT: f64 = 1e-4;
 
+/// The CD tests' settings with the islands switch, and room for the 30-disk column's sweeps.
 fn params(islands: bool) -> CdParams {
-    CdParams {
-        dt: DT,
-        theta: 1.0,
-        gravity: V2::new(0.0, -G),
-        alert: 1e-4,
-        skin: 1e-4,
-        nlgs: NlgsParams {
-            tol: 1e-6,
-            check_every: 5,
-            max_iter: 20_000,
-            relax: 1.0,
-            anderson: 0,
-            islands,
-        },
-    }
+    let mut p = common::cd_params(DT);
+    p.nlgs.max_iter = 20_000;
+    p.nlgs.islands = islands;
+    p
 }
 
 /// Columns of touching frictional disks of radius `r` standing on the floor, 4r apart, of the

@@ -1,27 +1,12 @@
 //! Contact dynamics against closed-form mechanics.
 
-use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
+mod common;
+
+use common::cd_params as params;
+use softgrain::cd::{Bodies, Coulomb, LawTable, Scene};
 use softgrain::geom::{V2, Wall};
 
 const G: f64 = 9.81;
-
-fn params(dt: f64) -> CdParams {
-    CdParams {
-        dt,
-        theta: 1.0,
-        gravity: V2::new(0.0, -G),
-        alert: 1e-4,
-        skin: 1e-4,
-        nlgs: NlgsParams {
-            tol: 1e-6,
-            check_every: 5,
-            max_iter: 10_000,
-            relax: 1.0,
-            anderson: 0,
-            islands: false,
-        },
-    }
-}
 
 /// A disk of radius r resting on a wall inclined at `angle` (rad), released from rest.
 /// Returns the measured acceleration along the slope (from the velocity at the end, since

@@ -1,4 +1,5 @@
-//! Helpers shared by the pipeline tests: temporary folders and running the binary.
+//! Helpers shared by the tests: temporary folders, running the binary, and the contact
+//! solver settings of the CD physics tests.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -61,4 +62,24 @@ pub fn run_to_state(dir: &Path, file: &Path, sets: &[&str]) -> softgrain::stages
         .join("checkpoints")
         .join(node.checkpoint_name());
     store::load(&path).unwrap().unwrap().unwrap()
+}
+
+/// The CD tests' settings under gravity g = 9.81 m/s² at step `dt`: θ = 1, alert and skin
+/// 0.1 mm, plain NLGS to a tight tolerance (1e-6, checked every 5 sweeps, at most 10,000).
+pub fn cd_params(dt: f64) -> softgrain::cd::CdParams {
+    softgrain::cd::CdParams {
+        dt,
+        theta: 1.0,
+        gravity: softgrain::geom::V2::new(0.0, -9.81),
+        alert: 1e-4,
+        skin: 1e-4,
+        nlgs: softgrain::cd::NlgsParams {
+            tol: 1e-6,
+            check_every: 5,
+            max_iter: 10_000,
+            relax: 1.0,
+            anderson: 0,
+            islands: false,
+        },
+    }
 }
