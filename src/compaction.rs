@@ -68,6 +68,15 @@ pub fn unjammed_layout(
     Ok((moved, BoxGeometry { width, h0 }))
 }
 
+/// A compaction's summary line, saying so when it continued a shorter run that ended at
+/// strain `from` (`StageCtx::load_continuation`).
+pub fn continued(summary: String, from: Option<f64>) -> String {
+    match from {
+        Some(e) => format!("{summary} (continued from a finished run at ε = {e:.4})"),
+        None => summary,
+    }
+}
+
 /// One recorded row of a packing's compaction. Stresses are N/m over the wall length (Pa per
 /// unit thickness), compression positive, each the mean over the recording interval.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -60,6 +60,12 @@ fn run_quietly(file: &Path, out: &Path) -> std::process::Output {
     softgrain(&["pipeline", "run", file, "--out", out, "-q"])
 }
 
+/// The same with the stage lines on stdout.
+fn run_loudly(file: &Path, out: &Path) -> std::process::Output {
+    let (file, out) = (file.to_str().unwrap(), out.to_str().unwrap());
+    softgrain(&["pipeline", "run", file, "--out", out])
+}
+
 fn files(run: &Path, rel: &str) -> Vec<u8> {
     std::fs::read(run.join(rel)).unwrap()
 }
@@ -298,13 +304,7 @@ fn a_run_that_fills_its_disk_fails_clearly_keeps_its_checkpoints_and_resumes() {
     let kept = checkpoints(&dir.join("g"));
     assert_eq!(kept.len(), 2, "prepare and discretise stay");
     // space is back: the run resumes and finishes; the earlier stages are not redone
-    let o = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let o = run_loudly(&file, &dir);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(common::stdout(&o).matches("cached").count(), 2);
     assert_eq!(checkpoints(&dir.join("g")).len(), 3);
@@ -350,17 +350,63 @@ fn two_runs_started_together_on_one_folder_leave_one_valid_result() {
     // whatever the interleaving: one valid checkpoint, no temporary file, and it is reused
     assert_eq!(checkpoints(&dir.join("g")).len(), 1);
     assert!(temp_files(&dir).is_empty());
-    let o = softgrain(&[
-        "pipeline",
-        "run",
-        file.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let o = run_loudly(&file, &dir);
     assert!(
         common::stdout(&o).contains("cached"),
         "{}",
         common::stdout(&o)
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Compacts `yaml` (case `case`) to `short` and then to its own final strain in one folder, and straight to
+/// its final strain in another: the second run continues the first's end state, and its
+/// checkpoint and time series are byte-identical to the straight run's.
+fn a_longer_compaction_continues_a_shorter_one(yaml: &str, long: &str, short: &str, case: &str) {
+    let dir = temp_dir(&format!("cont-{case}"));
+    let (straight, stepwise) = (dir.join("straight"), dir.join("stepwise"));
+    let file = write(&dir, "g.yaml", yaml);
+    let o = run_quietly(&file, &straight);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = write(&dir, "short.yaml", &yaml.replace(long, short));
+    let o = run_quietly(&first, &stepwise);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run_loudly(&file, &stepwise);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let said = format!("{}{}", stdout(&o), stderr(&o));
+    assert!(
+        said.contains("continued from a finished run at ε = "),
+        "{said}"
+    );
+    for ckpt in checkpoints(&straight.join("g")) {
+        let name = ckpt.file_name().unwrap();
+        let other = stepwise.join("g/checkpoints").join(name);
+        assert!(
+            std::fs::read(&ckpt).unwrap() == std::fs::read(&other).unwrap(),
+            "{name:?} differs"
+        );
+    }
+    let series = format!("g/compact/{case}/timeseries.csv");
+    assert!(files(&straight, &series) == files(&stepwise, &series));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_longer_bpm_compaction_continues_a_finished_shorter_one_to_the_same_bits() {
+    a_longer_compaction_continues_a_shorter_one(
+        PACKING,
+        "final_strain: 0.3",
+        "final_strain: 0.12",
+        "bpm-mu0",
+    );
+}
+
+#[test]
+fn a_longer_mpm_compaction_continues_a_finished_shorter_one_to_the_same_bits() {
+    a_longer_compaction_continues_a_shorter_one(
+        MPM_PACKING,
+        "final_strain: 0.15",
+        "final_strain: 0.07",
+        "mpm-mu0.5",
+    );
 }

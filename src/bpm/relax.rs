@@ -37,9 +37,9 @@ pub struct Grains<'a> {
     pub walls: &'a [Wall],
 }
 
-/// Relaxes each grain for `steps` steps (`laws` has one wall law per wall). Grain g's scene shuffles its contacts with the
-/// stream of `seed + g`, so a single grain (no neighbours) relaxes exactly as in a scene of
-/// its own. `progress` is told how many grains are done.
+/// Relaxes each grain for `steps` steps (`laws` has one wall law per wall). Grain g's scene
+/// shuffles its contacts with the stream of `seed + g`, so a single grain (no neighbours)
+/// relaxes exactly as in a scene of its own. `progress` is told how many grains are done.
 pub fn relax_grains(
     grains: Grains,
     laws: &LawTable<BpmLaw>,

@@ -68,8 +68,9 @@ pub fn run_dir(out: &Path, loaded: &Loaded) -> PathBuf {
     out.join(&loaded.pipeline.name)
 }
 
-/// What a snapshot's note (`<snapshot>.json`) holds: where the stage's progress bar stood and
-/// the wall seconds all runs of the stage had spent when it was saved.
+/// What a snapshot's note (`<node>.snap.json`, beside `<node>.snap`) holds: where the
+/// stage's progress bar stood and the wall seconds all runs of the stage had spent when it
+/// was saved.
 #[derive(Serialize, serde::Deserialize)]
 struct SnapshotNote {
     progress: String,
@@ -98,6 +99,9 @@ pub struct StageCtx {
     /// made the snapshot it resumed from (f64 bits; 0 for a fresh start).
     started: Instant,
     earlier_s: AtomicU64,
+    /// Where a packing compaction keeps its state at the end (`Node::continuation`), for a
+    /// longer run of the same settings to continue from.
+    continuation: Option<PathBuf>,
     pub quiet: bool,
     /// Lets a BPM grain run above the compact stage's 0.5 t0 step limit: only the bench's
     /// stability map sets it, to find where the scheme really fails.
@@ -114,6 +118,7 @@ impl StageCtx {
             upstream: Vec::new(),
             started: Instant::now(),
             earlier_s: AtomicU64::new(0),
+            continuation: None,
             quiet: true,
             beyond_step_limit: false,
         }
@@ -146,6 +151,24 @@ impl StageCtx {
         };
         let json = serde_json::to_vec(&note).expect("json");
         store::write_atomic(&SnapshotNote::path(&self.snapshot), &json)
+    }
+
+    /// The end state of a finished run that differs from this node only in its final strain,
+    /// if one was kept and verifies (the stage checks that it ended short of its own).
+    pub fn load_continuation<T: DeserializeOwned>(&self) -> Option<T> {
+        match store::load(self.continuation.as_ref()?) {
+            Ok(Some(Ok(s))) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Keeps the state at the end of the compaction loop (before the last partial recording)
+    /// for a longer run to continue from: it then passes through exactly this state.
+    pub fn save_continuation<T: Serialize>(&self, state: &T) -> std::io::Result<()> {
+        match &self.continuation {
+            Some(path) => store::save(path, state),
+            None => Ok(()),
+        }
     }
 
     /// Wall seconds spent on this stage: this run's and those of the runs it resumed.
@@ -256,6 +279,15 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
             snapshot: snapshot_path(&root, node),
             started: Instant::now(),
             earlier_s: AtomicU64::new(0),
+            continuation: node.continuation.map(|h| {
+                let name = format!(
+                    "{}.{}.{}.end",
+                    node.stage.name(),
+                    node.case,
+                    &h.to_hex()[..16]
+                );
+                root.join("snapshots").join(name)
+            }),
             quiet: opts.quiet,
             beyond_step_limit: false,
         };

@@ -54,6 +54,9 @@ pub struct Node {
     pub method: Option<Method>,
     /// The pipeline the node comes from: 0 this file, k its k-th include (not hashed).
     pub source: usize,
+    /// A packing compaction's name without its final strain: runs that differ only in how
+    /// far they compact share it, so a longer one can continue where a shorter one ended.
+    pub continuation: Option<blake3::Hash>,
 }
 
 impl Node {
@@ -105,25 +108,34 @@ fn node<P: Serialize>(
     nodes: &[Node],
 ) -> Node {
     let params = serde_json::to_value(params).expect("parameters serialise");
-    let mut h = blake3::Hasher::new();
-    h.update(stage.name().as_bytes());
-    h.update(&FORMAT_VERSION.to_le_bytes());
-    let version = version(stage, method, layout);
-    if version != 0 {
-        h.update(&version.to_le_bytes());
-    }
-    h.update(&serde_json::to_vec(&params).expect("json"));
-    for &u in &upstream {
-        h.update(nodes[u].hash.as_bytes());
-    }
+    let hash = |params: &serde_json::Value| {
+        let mut h = blake3::Hasher::new();
+        h.update(stage.name().as_bytes());
+        h.update(&FORMAT_VERSION.to_le_bytes());
+        let version = version(stage, method, layout);
+        if version != 0 {
+            h.update(&version.to_le_bytes());
+        }
+        h.update(&serde_json::to_vec(params).expect("json"));
+        for &u in &upstream {
+            h.update(nodes[u].hash.as_bytes());
+        }
+        h.finalize()
+    };
+    let continuation = (stage == Stage::Compact && layout == Some(Layout::Packing)).then(|| {
+        let mut open_ended = params.clone();
+        open_ended["compact"]["final_strain"] = serde_json::Value::Null;
+        hash(&open_ended)
+    });
     Node {
         stage,
         case,
+        hash: hash(&params),
         params,
         upstream,
-        hash: h.finalize(),
         method,
         source: 0,
+        continuation,
     }
 }
 

@@ -164,9 +164,17 @@ pub fn run(
     ctx: &StageCtx,
 ) -> Result<(PackingCompacted, String), String> {
     let c = p.compact.as_ref().expect("planned with a compact section");
+    let strain = |st: &Running| (st.geometry.h0 / height(st)).ln();
+    let mut continued = None;
     let mut st = match ctx.load_snapshot::<Running>() {
         Some(st) => st,
-        None => new_run(p, c, mu, g)?,
+        None => match ctx.load_continuation::<Running>() {
+            Some(st) if strain(&st) < c.final_strain => {
+                continued = Some(strain(&st));
+                st
+            }
+            _ => new_run(p, c, mu, g)?,
+        },
     };
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
@@ -174,7 +182,7 @@ pub fn run(
     if st.rows.is_empty() {
         record(p, ctx, &mut st).map_err(io)?;
     }
-    while (st.geometry.h0 / height(&st)).ln() < c.final_strain {
+    while strain(&st) < c.final_strain {
         let r = st.scene.step().map_err(|e| e.to_string())?;
         let h = st.scene.params.dt;
         for (k, imp) in st.impulse.iter_mut().enumerate() {
@@ -206,11 +214,13 @@ pub fn run(
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }
+    ctx.save_continuation(&st).map_err(io)?;
     if st.since_record > 0 {
         record(p, ctx, &mut st).map_err(io)?;
     }
     bar.finish();
-    finish(ctx, st)
+    let (done, summary) = finish(ctx, st)?;
+    Ok((done, compaction::continued(summary, continued)))
 }
 
 /// Closes a recording interval: one row, one particle frame and one force-network frame.

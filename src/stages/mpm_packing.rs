@@ -165,48 +165,55 @@ pub fn compact(
     ctx: &StageCtx,
 ) -> Result<(PackingCompacted, String), String> {
     let c = p.compact.as_ref().expect("planned with a compact section");
+    let mut continued = None;
     let mut st = match ctx.load_snapshot::<Running>() {
         Some(st) => st,
-        None => {
-            let centres: Vec<V2> = g.centres.iter().map(|c| V2::new(c[0], c[1])).collect();
-            // MPM seeding gives Σ v_p = π R² per grain exactly: the nominal areas are Φ's
-            let area: f64 = g.radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
-            let (moved, geometry) = compaction::unjammed_layout(
-                &centres,
-                &g.radii,
-                &g.radii,
-                area,
-                g.box_width,
-                c.initial_phi,
-            )?;
-            let moved: Vec<[f64; 2]> = moved.iter().map(|c| [c.x, c.y]).collect();
-            let prm = params(
-                g,
-                mu,
-                c.wall_friction,
-                c.gravity,
-                c.wall_velocity,
-                c.time_step,
-            );
-            let pk = packing(g, &prm, &moved, geometry.h0)?;
-            Running {
-                mass0: pk.total_mass(),
-                area0: pk.grain_area(),
-                figures: PackingFigures {
-                    time_step: pk.dt,
-                    ..PackingFigures::default()
-                },
-                pk,
-                geometry,
-                frames: FrameLog::particles(),
-                rows: Vec::new(),
-                forces: [0.0; 4],
-                iterations: 0,
-                since: 0,
-                min_gap: 0.0,
-                touched_top: false,
+        None => match ctx.load_continuation::<Running>() {
+            Some(st) if st.pk.strain() < c.final_strain - 1e-12 => {
+                continued = Some(st.pk.strain());
+                st
             }
-        }
+            _ => {
+                let centres: Vec<V2> = g.centres.iter().map(|c| V2::new(c[0], c[1])).collect();
+                // MPM seeding gives Σ v_p = π R² per grain exactly: the nominal areas are Φ's
+                let area: f64 = g.radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
+                let (moved, geometry) = compaction::unjammed_layout(
+                    &centres,
+                    &g.radii,
+                    &g.radii,
+                    area,
+                    g.box_width,
+                    c.initial_phi,
+                )?;
+                let moved: Vec<[f64; 2]> = moved.iter().map(|c| [c.x, c.y]).collect();
+                let prm = params(
+                    g,
+                    mu,
+                    c.wall_friction,
+                    c.gravity,
+                    c.wall_velocity,
+                    c.time_step,
+                );
+                let pk = packing(g, &prm, &moved, geometry.h0)?;
+                Running {
+                    mass0: pk.total_mass(),
+                    area0: pk.grain_area(),
+                    figures: PackingFigures {
+                        time_step: pk.dt,
+                        ..PackingFigures::default()
+                    },
+                    pk,
+                    geometry,
+                    frames: FrameLog::particles(),
+                    rows: Vec::new(),
+                    forces: [0.0; 4],
+                    iterations: 0,
+                    since: 0,
+                    min_gap: 0.0,
+                    touched_top: false,
+                }
+            }
+        },
     };
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
@@ -245,6 +252,7 @@ pub fn compact(
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }
+    ctx.save_continuation(&st).map_err(io)?;
     if st.since > 0 {
         record(&mut st, mu);
         if p.output.vtk {
@@ -317,7 +325,7 @@ pub fn compact(
             network,
             figures: st.figures,
         },
-        summary,
+        compaction::continued(summary, continued),
     ))
 }
 
