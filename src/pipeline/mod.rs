@@ -173,8 +173,12 @@ impl StageCtx {
 
     /// Wall seconds spent on this stage: this run's and those of the runs it resumed.
     fn wall_s(&self) -> f64 {
+        self.earlier_s() + self.started.elapsed().as_secs_f64()
+    }
+
+    /// Wall seconds of the earlier runs whose snapshot this run resumed (0 for a fresh start).
+    fn earlier_s(&self) -> f64 {
         f64::from_bits(self.earlier_s.load(Ordering::Relaxed))
-            + self.started.elapsed().as_secs_f64()
     }
 
     /// True once Ctrl-C was pressed: save a snapshot and return `Err(INTERRUPTED.into())`.
@@ -279,15 +283,7 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
             snapshot: snapshot_path(&root, node),
             started: Instant::now(),
             earlier_s: AtomicU64::new(0),
-            continuation: node.continuation.map(|h| {
-                let name = format!(
-                    "{}.{}.{}.end",
-                    node.stage.name(),
-                    node.case,
-                    &h.to_hex()[..16]
-                );
-                root.join("snapshots").join(name)
-            }),
+            continuation: continuation_path(&root, node),
             quiet: opts.quiet,
             beyond_step_limit: false,
         };
@@ -297,7 +293,6 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
             .iter()
             .map(|&u| states[u].as_ref().expect("upstream runs first"))
             .collect();
-        let start = Instant::now();
         let (state, summary) = stages::run(loaded.pipeline(node.source), node, &upstream, &ctx)
             .map_err(|cause| {
                 let (stage, case) = (node.stage.name(), node.case.clone());
@@ -307,9 +302,9 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
                     RunError::Stage { stage, case, cause }
                 }
             })?;
-        let seconds = start.elapsed().as_secs_f64();
+        let seconds = ctx.started.elapsed().as_secs_f64();
         // a stage resumed from a snapshot also counts the runs that made it
-        let total = seconds + f64::from_bits(ctx.earlier_s.load(Ordering::Relaxed));
+        let total = seconds + ctx.earlier_s();
         let mut figures = serde_json::json!({
             "stage": node.stage.name(),
             "case": node.case,
@@ -458,4 +453,11 @@ pub fn running(loaded: &Loaded, out: &Path) -> Option<String> {
 fn snapshot_path(root: &Path, node: &Node) -> PathBuf {
     root.join("snapshots")
         .join(node.checkpoint_name().replace(".ckpt", ".snap"))
+}
+
+/// Where a packing compaction keeps its end state for longer runs (`Node::continuation`).
+fn continuation_path(root: &Path, node: &Node) -> Option<PathBuf> {
+    let key = node.continuation?.to_hex();
+    let name = format!("{}.{}.{}.end", node.stage.name(), node.case, &key[..16]);
+    Some(root.join("snapshots").join(name))
 }
