@@ -14,13 +14,13 @@
 //! Usage: `cargo bench --bench deposit -- [--sizes 300,30000] [--runs 3]
 //! [--engines softgrain,rapier,rapier-froude] [--budget SECONDS] [--seed 1] [--step 0.02]
 //! [--wall-friction 0] [--tolerance 1.666e-4] [--relaxation 1] [--anderson 0]
-//! [--check-every 10] [--islands]` (disk-wall friction of both engines,
+//! [--check-every 10] [--islands] [--sleep]` (disk-wall friction of both engines,
 //! `prepare.wall_friction`; softgrain's NLGS: tolerance, `solver.tolerance`; relaxation ω,
 //! `solver.relaxation`; Anderson depth, `solver.anderson`; sweeps between checks; islands
-//! solved apart, `solver.islands`)
+//! solved apart, `solver.islands`; sleeping with rapier-froude's thresholds, `prepare.sleep`)
 
 use rapier2d::prelude::*;
-use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene};
+use softgrain::cd::{Bodies, CdParams, Coulomb, LawTable, NlgsParams, Scene, SleepParams};
 use softgrain::config::defaults;
 use softgrain::geom::{V2, Wall};
 use softgrain::packing::{self, Distribution};
@@ -147,7 +147,7 @@ const PROGRESS: u64 = 200;
 
 // ---------------------------------------------------------------- softgrain
 
-fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) -> Outcome {
+fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams, sleep: bool) -> Outcome {
     let mut bodies = Bodies::default();
     for (k, (x, d)) in s.pos.iter().zip(&s.diameters).enumerate() {
         bodies.push(*x, 0.5 * d, defaults::DENSITY, k as u32);
@@ -160,6 +160,12 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) -> Outcome
         alert: defaults::ALERT * d_min,
         skin: defaults::SKIN * d_min,
         nlgs,
+        // rapier-froude's thresholds (`run_rapier`): a body sleeps after its fastest point has
+        // moved slower than 0.05 length_unit per second for 0.5 s × sqrt(<d>/1 m)
+        sleep: sleep.then(|| SleepParams {
+            speed: 0.05 * s.d_mean,
+            time: 0.5 * s.d_mean.sqrt(),
+        }),
     };
     let wall_laws = vec![
         Coulomb {
@@ -204,12 +210,13 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) -> Outcome
         }
         if trace || scene.steps.is_multiple_of(PROGRESS) {
             eprintln!(
-                "  softgrain step {} t = {:.4} s, {} contacts, {} sweeps, {} resumed, rest ratio {:.2e}, {:.0} s wall",
+                "  softgrain step {} t = {:.4} s, {} contacts, {} sweeps, {} resumed, {} asleep, rest ratio {:.2e}, {:.0} s wall",
                 scene.steps,
                 scene.time,
                 r.contacts,
                 r.nlgs.iterations,
                 r.resumed,
+                scene.sleeping(),
                 rest_ratio(scene.bodies.translational_energy(), mass, s.d_mean),
                 t0.elapsed().as_secs_f64()
             );
@@ -413,9 +420,9 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams) {
+fn child(engine: &str, s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams, sleep: bool) {
     let mut out = match engine {
-        "softgrain" => run_softgrain(s, seed, budget, nlgs),
+        "softgrain" => run_softgrain(s, seed, budget, nlgs, sleep),
         "rapier" => run_rapier(s, budget, false),
         "rapier-froude" => run_rapier(s, budget, true),
         _ => panic!("unknown engine {engine}"),
@@ -468,6 +475,7 @@ fn main() {
             .map_or(defaults::NLGS_ANDERSON, |s| s.parse().expect("--anderson")),
         islands: args.iter().any(|a| a == "--islands"),
     };
+    let sleep = args.iter().any(|a| a == "--sleep");
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
@@ -477,6 +485,7 @@ fn main() {
             seed,
             budget,
             nlgs,
+            sleep,
         );
         return;
     }
@@ -494,12 +503,14 @@ fn main() {
     let exe = std::env::current_exe().expect("own path");
     println!(
         "deposit benchmark: seed {seed}, {runs} run(s) each, budget {budget} s, {} rayon threads, \
-         softgrain NLGS relaxation {}, Anderson depth {}, check every {} sweeps, islands {}",
+         softgrain NLGS relaxation {}, Anderson depth {}, check every {} sweeps, islands {}, \
+         sleeping {}",
         rayon::current_num_threads(),
         nlgs.relax,
         nlgs.anderson,
         nlgs.check_every,
         nlgs.islands,
+        sleep,
     );
     let mut table = Vec::new();
     for &n in &sizes {
@@ -522,6 +533,7 @@ fn main() {
                     .args(["--anderson", &nlgs.anderson.to_string()])
                     .args(["--check-every", &nlgs.check_every.to_string()])
                     .args(nlgs.islands.then_some("--islands"))
+                    .args(sleep.then_some("--sleep"))
                     .stderr(std::process::Stdio::inherit())
                     .output()
                     .expect("child run");

@@ -164,6 +164,12 @@ const CASES: &[(&str, &str, &str, &str)] = &[
     (
         PACKING,
         "grains: 30",
+        "grains: 30\n  sleep: {speed: 0.0, time: 0.02}",
+        "prepare.sleep.speed = 0.0: must be a finite number > 0",
+    ),
+    (
+        PACKING,
+        "grains: 30",
         "grains: 30\n  max_time: -1.0",
         "prepare.max_time = -1.0: must be a finite number > 0",
     ),

@@ -39,6 +39,7 @@ fn pair(gap: f64, g1: u32, g2: u32, pull: f64) -> Scene<BpmLaw> {
             anderson: 0,
             islands: false,
         },
+        sleep: None,
     };
     Scene::new(b, vec![], laws, params, 1)
 }
@@ -211,6 +212,7 @@ fn rolling_resistance_lets_floor_friction_turn_the_whole_grain() {
                 anderson: 0,
                 islands: false,
             },
+            sleep: None,
         };
         let floor_wall = Wall::new(V2::new(-100.0, 0.0), V2::new(100.0, 0.0));
         let mut s = Scene::new(b, vec![floor_wall], laws, params, 1);

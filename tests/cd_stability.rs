@@ -67,6 +67,7 @@ fn pair(dt: f64) -> Scene<Bond> {
             anderson: 0,
             islands: false,
         },
+        sleep: None,
     };
     Scene::new(b, vec![], LawTable::new(bond, bond, vec![]), params, 1)
 }
@@ -160,6 +161,7 @@ fn a_bpm_grain_far_above_its_step_limit_stops_at_once() {
                 anderson: 0,
                 islands: false,
             },
+            sleep: None,
         };
         let laws = LawTable::new(law, BpmLaw::Coulomb { mu: 0.0 }, vec![]);
         Scene::new(b.clone(), vec![], laws, params, 1)

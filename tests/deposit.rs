@@ -5,10 +5,16 @@ mod common;
 
 use softgrain::stages::StageState;
 
-fn deposit(grains: usize, friction: f64, tag: &str) -> softgrain::stages::prepare::Prepared {
+/// `extra`: further `prepare` keys, each line indented by two spaces.
+fn deposit(
+    grains: usize,
+    friction: f64,
+    extra: &str,
+    tag: &str,
+) -> softgrain::stages::prepare::Prepared {
     let dir = common::temp_dir(tag);
     let yaml = format!(
-        "name: dep\nseed: 7\nprepare:\n  grains: {grains}\n  diameter: [1.4e-3, 2.4e-3]\n  friction: {friction}\noutput:\n  every: 0\n  vtk: false\n"
+        "name: dep\nseed: 7\nprepare:\n  grains: {grains}\n  diameter: [1.4e-3, 2.4e-3]\n  friction: {friction}\n{extra}output:\n  every: 0\n  vtk: false\n"
     );
     let file = common::write(&dir, "dep.yaml", &yaml);
     let state = common::run_to_state(&dir, &file, &[]);
@@ -40,10 +46,23 @@ fn check(p: &softgrain::stages::prepare::Prepared) {
 
 #[test]
 fn frictional_deposit_of_300_disks_rests_on_the_floor() {
-    check(&deposit(300, 0.3, "dep300"));
+    check(&deposit(300, 0.3, "", "dep300"));
 }
 
 #[test]
 fn frictionless_deposit_rests_on_the_floor() {
-    check(&deposit(100, 0.0, "dep100"));
+    check(&deposit(100, 0.0, "", "dep100"));
+}
+
+#[test]
+fn a_deposit_whose_resting_groups_sleep_rests_on_the_floor_as_well() {
+    // Sleeping groups keep the impulses they rested on; the floor still carries the weight.
+    let p = deposit(
+        300,
+        0.3,
+        "  sleep: {speed: 1.0e-3, time: 0.02}\n",
+        "dep300sleep",
+    );
+    check(&p);
+    assert!(p.figures.sleeping > 0, "no disk fell asleep");
 }

@@ -199,6 +199,12 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(hashes(&dir, GRAPH, &["compact.solver.anderson=0"]), base);
     let r = hashes(&dir, GRAPH, &["compact.solver.islands=true"]);
     assert_eq!(changed(&r), cases[4..8].to_vec());
+    // sleeping in the deposit renames everything; how often snapshots are saved, nothing
+    let r = hashes(&dir, GRAPH, &["prepare.sleep={speed: 1.0e-3, time: 0.02}"]);
+    assert_eq!(changed(&r).len(), base.len());
+    assert_eq!(hashes(&dir, GRAPH, &["output.snapshot_every=123"]), base);
+    let r = hashes(&dir, GRAPH, &["output.every=123"]);
+    assert_eq!(changed(&r).len(), base.len());
     // a case is named by its own friction and particle range, not by the lists: adding a
     // friction value or dropping one leaves the other cases' names (and work) alone
     let more = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.25,0.5]"]);

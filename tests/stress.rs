@@ -341,6 +341,7 @@ fn bpm_compress(g: &discretise::BpmGrains, v: f64, dt_over_t0: f64, strain: f64)
             anderson: 0,
             islands: false,
         },
+        sleep: None,
     };
     let wall_laws = vec![BpmLaw::Coulomb { mu: 0.0 }; 2];
     let laws = LawTable::new(g.law, BpmLaw::Coulomb { mu: 0.0 }, wall_laws);
@@ -546,6 +547,7 @@ fn initial_overlaps_are_kept_not_grown_or_refused_at_step_zero() {
                 anderson: 0,
                 islands: false,
             },
+            sleep: None,
         };
         let wall_laws = vec![
             Coulomb { mu: 0.3 },

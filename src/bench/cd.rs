@@ -36,6 +36,7 @@ fn params(s: &CdSetting, dt: f64, d_min: f64) -> CdParams {
             anderson: 0,
             islands: false,
         },
+        sleep: None,
     }
 }
 

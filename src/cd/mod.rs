@@ -21,6 +21,7 @@ mod guard;
 mod law;
 mod nlgs;
 mod scene;
+mod sleep;
 
 pub use bodies::Bodies;
 pub use contact::{Contact, Partner};
@@ -28,8 +29,19 @@ pub use detect::Neighbours;
 pub use law::{Coulomb, InteractionLaw, LawTable};
 pub use nlgs::{COLOURED_MIN, NlgsParams, NlgsReport};
 pub use scene::{CdError, CdParams, Scene, StepReport};
+pub use sleep::SleepParams;
 
 /// Loops over fewer items than this run on the calling thread. Handing a loop to rayon's
 /// pool wakes its threads and waits for them (the scheduler's share was 40% of a 300-disk
 /// deposit's profile, more than the NLGS's), while a loop this short takes microseconds.
 const PAR_MIN: usize = 4096;
+
+/// Root of `x` in a union-find forest over bodies (path halving): the contact graph's
+/// islands (`nlgs.rs`) and sleeping groups (`sleep.rs`).
+fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        parent[x as usize] = parent[parent[x as usize] as usize];
+        x = parent[x as usize];
+    }
+    x
+}

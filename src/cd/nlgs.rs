@@ -3,6 +3,7 @@
 //! off-diagonal Delassus block is ever stored.
 
 use super::anderson::Anderson;
+use super::find;
 use super::{Bodies, Contact, InteractionLaw, LawTable, PAR_MIN, Partner};
 use crate::geom::{V2, perp};
 use crate::rng::Rng;
@@ -69,8 +70,8 @@ fn apply(c: &Contact, b: &mut Bodies, dp_n: f64, dp_t: f64, dp_r: f64) {
     }
 }
 
-/// Applies every contact's current impulse (the warm start) to the free velocities.
-pub fn apply_all(contacts: &[Contact], b: &mut Bodies) {
+/// Applies the contacts' current impulses (the warm start) to the free velocities.
+pub fn apply_all<'a>(contacts: impl IntoIterator<Item = &'a Contact>, b: &mut Bodies) {
     for c in contacts {
         apply(c, b, c.p_n, c.p_t, c.p_r);
     }
@@ -514,15 +515,6 @@ struct Islands {
 }
 
 impl Islands {
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            // path halving
-            parent[x as usize] = parent[parent[x as usize] as usize];
-            x = parent[x as usize];
-        }
-        x
-    }
-
     /// Groups `rows` island by island (stable within an island) and returns the number of
     /// islands.
     fn group(&mut self, rows: &mut [Row], n_bodies: usize) -> usize {
@@ -530,8 +522,8 @@ impl Islands {
         self.parent.extend(0..n_bodies as u32);
         for r in rows.iter() {
             if (r.j as usize) < n_bodies {
-                let a = Self::find(&mut self.parent, r.i);
-                let b = Self::find(&mut self.parent, r.j);
+                let a = find(&mut self.parent, r.i);
+                let b = find(&mut self.parent, r.j);
                 self.parent[a.max(b) as usize] = a.min(b);
             }
         }
@@ -540,7 +532,7 @@ impl Islands {
         self.of_row.clear();
         let mut count = 0u32;
         for r in rows.iter() {
-            let root = Self::find(&mut self.parent, r.i) as usize;
+            let root = find(&mut self.parent, r.i) as usize;
             if self.label[root] == u32::MAX {
                 self.label[root] = count;
                 count += 1;

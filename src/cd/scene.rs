@@ -1,6 +1,7 @@
 use super::detect::Neighbours;
 use super::guard::EnergyGuard;
 use super::nlgs::{self, NlgsParams, NlgsReport};
+use super::sleep::{Sleep, SleepParams};
 use super::{Bodies, Contact, InteractionLaw, LawTable, PAR_MIN, Partner};
 use crate::geom::{V2, Wall};
 use crate::rng::Rng;
@@ -22,6 +23,9 @@ pub struct CdParams {
     /// Verlet skin (m): the pair list is rebuilt when a disk has moved skin/2.
     pub skin: f64,
     pub nlgs: NlgsParams,
+    /// Put groups of slow touching disks to sleep (`sleep.rs`); `None`: every disk stays
+    /// awake.
+    pub sleep: Option<SleepParams>,
 }
 
 /// A numerical fault the engine detected; the state that produced it is not returned as good.
@@ -86,6 +90,7 @@ pub struct Scene<L> {
     /// Force each wall exerted on the disks over the last step (N/m).
     pub wall_force: Vec<V2>,
     rng: Rng,
+    sleep: Sleep,
     #[serde(skip)]
     neighbours: Neighbours,
     #[serde(skip)]
@@ -120,6 +125,7 @@ impl<L: InteractionLaw> Scene<L> {
             contacts: Vec::new(),
             wall_force: vec![V2::zeros(); n_walls],
             rng: Rng::stream(seed, "cd-nlgs-order"),
+            sleep: Sleep::default(),
             neighbours: Neighbours::default(),
             order: Vec::new(),
             in_solve: Vec::new(),
@@ -177,21 +183,44 @@ impl<L: InteractionLaw> Scene<L> {
         if shortcuts.warm_start {
             warm_start(&mut contacts, &self.contacts);
         }
+        if self.params.sleep.is_some() {
+            let moving: Vec<bool> = self
+                .walls
+                .iter()
+                .map(|w| w.velocity != V2::zeros())
+                .collect();
+            // A sleeping group wakes when an awake disk or a moving wall can reach it within
+            // the step: the global alert's margin, 2h (|v_i| + |v_j| + h|g|).
+            let (b, walls, hg) = (&self.bodies, &self.walls, h * self.params.gravity.norm());
+            let reach = |c: &Contact| {
+                let vj = match c.j {
+                    Partner::Body(j) => b.vel[j as usize].norm(),
+                    Partner::Wall(w) => walls[w as usize].velocity.norm(),
+                };
+                c.p_n > 0.0 || c.gap <= 2.0 * h * (b.vel[c.i as usize].norm() + vj + hg)
+            };
+            self.sleep.wake(&contacts, reach, &moving);
+        }
+        let sleep = &self.sleep;
 
         // 1-2. Smooth forces (gravity, explicit law forces) and free velocities.
         let v_minus = (theta < 1.0).then(|| (self.bodies.vel.clone(), self.bodies.omega.clone()));
         let g = self.params.gravity;
         let b = &mut self.bodies;
-        for i in 0..b.len() {
+        for i in (0..b.len()).filter(|&i| !sleep.asleep(i)) {
             b.vel[i] += h * (g + b.inv_mass[i] * b.force[i]);
         }
         for c in &contacts {
-            let a0 = self.a0(c);
+            let a0 = a0(&self.bodies, c);
             let f = self.laws.get(c.law).smooth_force(c.gap, a0);
             if f != 0.0 {
                 let i = c.i as usize;
-                self.bodies.vel[i] += h * self.bodies.inv_mass[i] * f * c.n;
-                if let Partner::Body(j) = c.j {
+                if !sleep.asleep(i) {
+                    self.bodies.vel[i] += h * self.bodies.inv_mass[i] * f * c.n;
+                }
+                if let Partner::Body(j) = c.j
+                    && !sleep.asleep(j as usize)
+                {
                     let j = j as usize;
                     self.bodies.vel[j] -= h * self.bodies.inv_mass[j] * f * c.n;
                 }
@@ -202,12 +231,17 @@ impl<L: InteractionLaw> Scene<L> {
         // local alert, only those whose own two bodies can close them within the step, or
         // that carry a warm-start impulse. The others are checked after the solve and added,
         // and the solve resumed, wherever the solution would close them.
-        nlgs::apply_all(&contacts, &mut self.bodies);
+        // (a sleeping group's contacts keep their impulses but are neither applied nor solved)
+        nlgs::apply_all(
+            contacts.iter().filter(|c| !sleep.dormant(c)),
+            &mut self.bodies,
+        );
         let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
         let mut in_solve = std::mem::take(&mut self.in_solve);
         in_solve.clear();
         in_solve.extend(contacts.iter().map(|c| {
             c.gap <= alert
+                && !sleep.dormant(c)
                 && (!shortcuts.local_alert
                     || c.p_n != 0.0
                     || c.gap <= self.local_alert(c, &wall_vel))
@@ -242,7 +276,11 @@ impl<L: InteractionLaw> Scene<L> {
             }
             let before = self.order.len();
             for (k, c) in contacts.iter().enumerate() {
-                if !in_solve[k] && c.gap <= alert && self.closes(c, &wall_vel, data.gap_rate) {
+                if !in_solve[k]
+                    && c.gap <= alert
+                    && !self.sleep.dormant(c)
+                    && self.closes(c, &wall_vel, data.gap_rate)
+                {
                     in_solve[k] = true;
                     self.order.push(k as u32);
                 }
@@ -252,7 +290,6 @@ impl<L: InteractionLaw> Scene<L> {
             }
             resumed += 1;
         }
-        self.in_solve = in_solve;
 
         // 5. q⁺ = q⁻ + h [(1-θ) V⁻ + θ V⁺].
         let b = &mut self.bodies;
@@ -321,6 +358,13 @@ impl<L: InteractionLaw> Scene<L> {
                 }
             }
         }
+        if let Some(p) = &self.params.sleep {
+            // groups are joined by the contacts that carry load (a disk spinning on the
+            // floor next to a resting pile does not keep it awake)
+            let joined = |k: usize, c: &Contact| in_solve[k] && c.p_n > 0.0;
+            (self.sleep).settle(p, h, &mut self.bodies, &contacts, joined);
+        }
+        self.in_solve = in_solve;
         // the last step's list becomes the next step's buffer
         detection.spare = std::mem::replace(&mut self.contacts, contacts);
         self.detection = detection;
@@ -360,11 +404,9 @@ impl<L: InteractionLaw> Scene<L> {
         (b.vel[c.i as usize] - vj).dot(&c.n) + c.gap.max(0.0) * gap_rate < 0.0
     }
 
-    fn a0(&self, c: &Contact) -> f64 {
-        match c.j {
-            Partner::Body(j) => self.bodies.radius[c.i as usize] + self.bodies.radius[j as usize],
-            Partner::Wall(_) => self.bodies.radius[c.i as usize],
-        }
+    /// Disks asleep now (`sleep.rs`).
+    pub fn sleeping(&self) -> usize {
+        self.sleep.sleeping()
     }
 
     /// Narrow phase: disk pairs from the Verlet list and disk-wall pairs within range.
@@ -473,6 +515,14 @@ impl<L: InteractionLaw> Scene<L> {
                 }
             })
             .collect()
+    }
+}
+
+/// The equilibrium distance a0 of a contact's law: r_i + r_j, or r_i against a wall.
+fn a0(b: &Bodies, c: &Contact) -> f64 {
+    match c.j {
+        Partner::Body(j) => b.radius[c.i as usize] + b.radius[j as usize],
+        Partner::Wall(_) => b.radius[c.i as usize],
     }
 }
 

@@ -45,6 +45,7 @@ pub enum Layout {
     Explicit,
 }
 
+pub use crate::cd::SleepParams;
 pub use crate::packing::Distribution;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -87,6 +88,11 @@ pub struct Prepare {
     /// Packing: the deposit fails if not at rest by this time (s).
     #[serde(default = "max_time")]
     pub max_time: f64,
+    /// Put groups of touching disks to sleep once each of their disks has moved slower
+    /// than `speed` (m/s, |v| + r|ω|) for `time` (s), as rapier and Box2D do
+    /// (`cd/sleep.rs`); absent: no disk sleeps.
+    #[serde(default)]
+    pub sleep: Option<SleepParams>,
     /// Explicit: angle (degrees) by which the listed scene is tilted; gravity stays along -y.
     #[serde(default)]
     pub incline_angle: f64,

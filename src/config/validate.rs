@@ -147,6 +147,10 @@ fn prepare(p: &Prepare) -> Result<(), Failure> {
     positive("prepare.density", p.density)?;
     positive("prepare.rest_tolerance", p.rest_tolerance)?;
     positive("prepare.max_time", p.max_time)?;
+    if let Some(s) = &p.sleep {
+        positive("prepare.sleep.speed", s.speed)?;
+        non_negative("prepare.sleep.time", s.time)?;
+    }
     if let Some(dt) = p.time_step {
         positive("prepare.time_step", dt)?;
     }

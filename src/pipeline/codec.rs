@@ -11,8 +11,8 @@ use serde::de::DeserializeOwned;
 /// `MpmPacking` and `Analysed` added last; version 5 adds the rolling impulse to contacts;
 /// version 7 the NLGS's Anderson depth to the solver settings a scene carries; version 8
 /// the inertial number to a packing's rows and figures; version 9 the islands switch to the
-/// solver settings a scene carries.
-pub const FORMAT_VERSION: u32 = 9;
+/// solver settings a scene carries; version 10 the sleeping settings and state.
+pub const FORMAT_VERSION: u32 = 10;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

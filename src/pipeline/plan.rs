@@ -5,7 +5,7 @@
 //! edited file.
 
 use super::codec::FORMAT_VERSION;
-use crate::config::{Layout, Loaded, Method, Pipeline, Solver};
+use crate::config::{Layout, Loaded, Method, Output, Pipeline, Solver};
 use crate::stages::analyse::ANALYSIS_VERSION;
 use serde::Serialize;
 use serde_json::json;
@@ -166,6 +166,18 @@ fn canonical_solver(s: &Solver) -> serde_json::Value {
     v
 }
 
+/// The output section as hashed: without `snapshot_every`, which changes no result (a run
+/// resumed from a snapshot ends with the same bits), so that saving snapshots more or less
+/// often does not redo finished stages. `every` and `vtk` stay: they decide the frames and
+/// the rows a node records.
+fn canonical_output(o: &Output) -> serde_json::Value {
+    let mut v = serde_json::to_value(o).expect("parameters serialise");
+    v.as_object_mut()
+        .expect("a section")
+        .remove("snapshot_every");
+    v
+}
+
 /// Readable, stable number formatting for case names: 0.5 -> "0.5", 1.6e-4 -> "0.16" (mm).
 fn mm(x: f64) -> String {
     format!("{}", (x * 1e3 * 1e6).round() / 1e6)
@@ -206,7 +218,13 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
         Layout::Explicit => "explicit",
     };
     let solver = canonical_solver(&p.solver);
-    let prep = json!({"seed": p.seed, "prepare": p.prepare, "solver": solver, "output": p.output});
+    let output = canonical_output(&p.output);
+    let mut prepare = serde_json::to_value(&p.prepare).expect("parameters serialise");
+    if p.prepare.sleep.is_none() {
+        // (added later: absent, it keeps the names of pipelines that do not set it)
+        prepare.as_object_mut().expect("a section").remove("sleep");
+    }
+    let prep = json!({"seed": p.seed, "prepare": prepare, "solver": solver, "output": output});
     nodes.push(node(
         Stage::Prepare,
         None,
@@ -271,7 +289,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                     Some(Method::Bpm) => &bpm_solver,
                     _ => &solver,
                 };
-                let params = json!({"compact": compact, "solver": solver, "output": p.output});
+                let params = json!({"compact": compact, "solver": solver, "output": output});
                 let method = nodes[*up].method;
                 nodes.push(node(
                     Stage::Compact,

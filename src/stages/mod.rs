@@ -76,6 +76,7 @@ pub(crate) fn cd_params(solver: &Solver, dt: f64, gravity: f64, d_min: f64) -> C
             anderson: solver.anderson,
             islands: solver.islands,
         },
+        sleep: None,
     }
 }
 

@@ -4,7 +4,7 @@
 //! recorded.
 
 use super::frames::FrameLog;
-use crate::cd::{Bodies, Coulomb, LawTable, Partner, Scene};
+use crate::cd::{Bodies, CdParams, Coulomb, LawTable, Partner, Scene};
 use crate::config::{Layout, Pipeline, Prepare, defaults};
 use crate::geom::{V2, Wall};
 use crate::packing;
@@ -46,6 +46,8 @@ pub struct Figures {
     pub max_overlap: f64,
     /// Kinetic energy at the end (J/m).
     pub kinetic_energy: f64,
+    /// Disks asleep at the end (`prepare.sleep`).
+    pub sleeping: usize,
 }
 
 /// What a snapshot holds: everything needed to continue bit for bit.
@@ -200,7 +202,10 @@ fn start(p: &Pipeline) -> Result<Running, String> {
     };
     let d_min = 2.0 * bodies.radius.iter().cloned().fold(f64::INFINITY, f64::min);
     let dt = default_step(prep, 2.0 * bodies.mean_radius())?;
-    let params = super::cd_params(&p.solver, dt, prep.gravity, d_min);
+    let params = CdParams {
+        sleep: prep.sleep,
+        ..super::cd_params(&p.solver, dt, prep.gravity, d_min)
+    };
     let wall_laws = vec![
         Coulomb {
             mu: prep.wall_friction
@@ -273,6 +278,7 @@ fn finish(p: &Pipeline, ctx: &StageCtx, st: Running) -> Result<(Prepared, String
     }
     (f.mean_overlap, f.max_overlap) = overlaps(&scene);
     f.kinetic_energy = scene.bodies.kinetic_energy();
+    f.sleeping = scene.sleeping();
     if p.prepare.layout == Layout::Explicit {
         ctx.write("trajectories.csv", st.trajectories.as_bytes())
             .map_err(io)?;

@@ -81,5 +81,6 @@ pub fn cd_params(dt: f64) -> softgrain::cd::CdParams {
             anderson: 0,
             islands: false,
         },
+        sleep: None,
     }
 }
