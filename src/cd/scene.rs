@@ -362,7 +362,7 @@ impl<L: InteractionLaw> Scene<L> {
             // groups are joined by the contacts that carry load (a disk spinning on the
             // floor next to a resting pile does not keep it awake)
             let joined = |k: usize, c: &Contact| in_solve[k] && c.p_n > 0.0;
-            (self.sleep).settle(p, h, &mut self.bodies, &contacts, joined);
+            self.sleep.settle(p, h, &mut self.bodies, &contacts, joined);
         }
         self.in_solve = in_solve;
         // the last step's list becomes the next step's buffer

@@ -6,7 +6,10 @@
 //!
 //! A sleeping disk has zero velocity and no smooth force; its contacts with other sleeping
 //! disks and with fixed walls keep their last impulses (so the floor still carries the
-//! group's weight in `Scene::wall_force`) but are neither applied nor solved. Off unless
+//! group's weight in `Scene::wall_force`) but are neither applied nor solved. A contact
+//! between an awake disk and a sleeper that the wake test did not catch (pushed faster
+//! than predicted) is solved like any other, so the sleeper is moved, not passed through,
+//! and its load-carrying contact wakes its group at the next step. Off unless
 //! `CdParams::sleep` is set.
 
 use super::{Bodies, Contact, Partner, find};
