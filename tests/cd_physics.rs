@@ -222,13 +222,7 @@ fn a_wide_stack_solved_by_the_coloured_sweep_carries_its_weight_with_any_thread_
     // on the floor; one and two threads must give the same bits.
     use softgrain::cd::COLOURED_MIN;
     let (r, nx, ny) = (1e-3, 1000, 20);
-    let mut bodies = Bodies::default();
-    for j in 0..ny {
-        for i in 0..nx {
-            let p = V2::new((2 * i + 1) as f64 * r, (2 * j + 1) as f64 * r);
-            bodies.push(p, r, 1000.0, (j * nx + i) as u32);
-        }
-    }
+    let bodies = common::lattice(r, nx, ny);
     let floor = Wall::new(V2::new(0.0, 0.0), V2::new(2.0 * nx as f64 * r, 0.0));
     let weight = bodies.total_mass() * G;
     let run = |threads: usize| {

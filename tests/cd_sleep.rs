@@ -3,7 +3,7 @@
 
 mod common;
 
-use softgrain::cd::{Bodies, Coulomb, LawTable, Scene, SleepParams};
+use softgrain::cd::{Coulomb, LawTable, Scene, SleepParams};
 use softgrain::geom::{V2, Wall};
 
 const G: f64 = 9.81;
@@ -13,13 +13,7 @@ fn a_sleeping_pile_carries_its_weight_and_wakes_when_a_disk_lands_on_it() {
     // 6 × 3 touching disks on a floor between two walls, and one disk 12 mm above them that
     // lands after about 50 ms, once the pile has fallen asleep.
     let (r, nx, ny) = (1e-3, 6, 3);
-    let mut bodies = Bodies::default();
-    for j in 0..ny {
-        for i in 0..nx {
-            let p = V2::new((2 * i + 1) as f64 * r, (2 * j + 1) as f64 * r);
-            bodies.push(p, r, 1000.0, (j * nx + i) as u32);
-        }
-    }
+    let mut bodies = common::lattice(r, nx, ny);
     let pile = bodies.len();
     let top = (2 * ny - 1) as f64 * r;
     bodies.push(

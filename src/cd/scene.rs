@@ -183,23 +183,19 @@ impl<L: InteractionLaw> Scene<L> {
         if shortcuts.warm_start {
             warm_start(&mut contacts, &self.contacts);
         }
+        let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
         if self.params.sleep.is_some() {
-            let moving: Vec<bool> = self
-                .walls
-                .iter()
-                .map(|w| w.velocity != V2::zeros())
-                .collect();
             // A sleeping group wakes when an awake disk or a moving wall can reach it within
             // the step: the global alert's margin, 2h (|v_i| + |v_j| + h|g|).
-            let (b, walls, hg) = (&self.bodies, &self.walls, h * self.params.gravity.norm());
+            let (b, hg) = (&self.bodies, h * self.params.gravity.norm());
             let reach = |c: &Contact| {
                 let vj = match c.j {
                     Partner::Body(j) => b.vel[j as usize].norm(),
-                    Partner::Wall(w) => walls[w as usize].velocity.norm(),
+                    Partner::Wall(w) => wall_vel[w as usize].norm(),
                 };
                 c.p_n > 0.0 || c.gap <= 2.0 * h * (b.vel[c.i as usize].norm() + vj + hg)
             };
-            self.sleep.wake(&contacts, reach, &moving);
+            self.sleep.wake(&contacts, reach, &wall_vel);
         }
         let sleep = &self.sleep;
 
@@ -236,7 +232,6 @@ impl<L: InteractionLaw> Scene<L> {
             contacts.iter().filter(|c| !sleep.dormant(c)),
             &mut self.bodies,
         );
-        let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
         let mut in_solve = std::mem::take(&mut self.in_solve);
         in_solve.clear();
         in_solve.extend(contacts.iter().map(|c| {

@@ -13,6 +13,7 @@
 //! `CdParams::sleep` is set.
 
 use super::{Bodies, Contact, Partner, find};
+use crate::geom::V2;
 use serde::{Deserialize, Serialize};
 
 /// When a group falls asleep.
@@ -65,13 +66,14 @@ impl Sleep {
             }
     }
 
-    /// Wakes every sleeping group touched by an awake disk or a moving wall through one of
-    /// the contacts `touching` accepts, and the groups those touch in turn.
+    /// Wakes every sleeping group touched by an awake disk or a moving wall (`wall_vel`, the
+    /// walls' imposed velocities) through one of the contacts `touching` accepts, and the
+    /// groups those touch in turn.
     pub fn wake(
         &mut self,
         contacts: &[Contact],
         touching: impl Fn(&Contact) -> bool,
-        wall_moving: &[bool],
+        wall_vel: &[V2],
     ) {
         if self.next == 0 {
             return; // nothing has ever slept
@@ -89,7 +91,9 @@ impl Sleep {
                             _ => None,
                         }
                     }
-                    Partner::Wall(w) => (self.asleep(i) && wall_moving[w as usize]).then_some(i),
+                    Partner::Wall(w) => {
+                        (self.asleep(i) && wall_vel[w as usize] != V2::zeros()).then_some(i)
+                    }
                 };
                 if let Some(k) = sleeper
                     && touching(c)
@@ -178,7 +182,6 @@ impl Sleep {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::V2;
 
     fn contact(i: u32, j: Partner) -> Contact {
         Contact {
@@ -223,8 +226,8 @@ mod tests {
         assert!(s.asleep(0) && s.asleep(1) && !s.asleep(2));
         assert_eq!(b.vel[1], V2::zeros());
         assert!(s.dormant(&cs[0]) && !s.dormant(&cs[1]));
-        // disk 1 speeding up again resets nothing while asleep; a touch from 2 wakes the pair
-        s.wake(&[contact(1, Partner::Body(2))], |_| true, &[false]);
+        // a touch from the awake disk 2 wakes the pair
+        s.wake(&[contact(1, Partner::Body(2))], |_| true, &[V2::zeros()]);
         assert_eq!(s.sleeping(), 0);
     }
 
@@ -239,7 +242,7 @@ mod tests {
         let mut s = Sleep::default();
         s.settle(&p, 0.1, &mut b, &cs, |_, _| true);
         assert_eq!(s.sleeping(), 2);
-        s.wake(&cs, |_| true, &[false, true]);
+        s.wake(&cs, |_| true, &[V2::zeros(), V2::new(0.0, -1.0)]);
         assert!(s.asleep(0) && !s.asleep(1));
         // groups are woken whole, and a woken group wakes the sleepers it touches
         let mut b = bodies(4);
@@ -250,7 +253,7 @@ mod tests {
         s.wake(&cs, |_| true, &[]);
         assert_eq!(s.sleeping(), 4, "sleepers touching sleepers stay asleep");
         let chain = [contact(1, Partner::Body(2)), contact(3, Partner::Wall(0))];
-        s.wake(&chain, |_| true, &[true]);
+        s.wake(&chain, |_| true, &[V2::new(0.0, -1.0)]);
         assert_eq!(
             s.sleeping(),
             0,

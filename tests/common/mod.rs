@@ -84,3 +84,16 @@ pub fn cd_params(dt: f64) -> softgrain::cd::CdParams {
         sleep: None,
     }
 }
+
+/// nx × ny touching disks of radius r and density 1000 kg/m³ in a square lattice on the
+/// floor y = 0 from x = 0, each its own group.
+pub fn lattice(r: f64, nx: usize, ny: usize) -> softgrain::cd::Bodies {
+    let mut bodies = softgrain::cd::Bodies::default();
+    for j in 0..ny {
+        for i in 0..nx {
+            let p = softgrain::geom::V2::new((2 * i + 1) as f64 * r, (2 * j + 1) as f64 * r);
+            bodies.push(p, r, 1000.0, (j * nx + i) as u32);
+        }
+    }
+    bodies
+}
