@@ -40,6 +40,9 @@ pub struct Anderson {
     spare: Vec<Vec<f64>>,
 }
 
+/// Slots per chunk of the passes over the columns: 9 columns' chunks fit in L1.
+const CHUNK: usize = 256;
+
 impl Anderson {
     /// Starts a new solve with an empty history, keeping the buffers' memory (the scene
     /// keeps one `Anderson` from step to step). `rows`: the diagonal terms (W_nn, W_tt) of
@@ -145,14 +148,16 @@ impl Anderson {
         std::mem::swap(&mut self.g, &mut self.prev_g);
         std::mem::swap(&mut self.f, &mut self.prev_f);
         let gamma = gamma?;
-        // next = g_k - ΔG γ, element by element: one pass over the columns
-        let columns: Vec<&[f64]> = self.dg.iter().map(Vec::as_slice).collect();
-        for (i, x) in self.next.iter_mut().enumerate() {
-            let mut v = self.prev_g[i];
-            for (col, &c) in columns.iter().zip(&gamma) {
-                v -= c * col[i];
+        // next = g_k - ΔG γ, the columns subtracted in order for each element (a chunk of
+        // elements at a time, so that the columns stay in cache and the loop vectorises)
+        for (start, chunk) in self.next.chunks_mut(CHUNK).enumerate() {
+            let at = start * CHUNK..start * CHUNK + chunk.len();
+            chunk.copy_from_slice(&self.prev_g[at.clone()]);
+            for (col, &c) in self.dg.iter().zip(&gamma) {
+                for (x, &d) in chunk.iter_mut().zip(&col[at.clone()]) {
+                    *x -= c * d;
+                }
             }
-            *x = v;
         }
         Some(|slot: usize| {
             let s = 2 * slot;
@@ -161,22 +166,25 @@ impl Anderson {
     }
 
     /// The Gram matrix's new last row and column, Σ W² ΔF_j ΔF_new for every column j (the
-    /// new one last), and the right-hand side Σ W² ΔF_j f, in one pass over the columns
-    /// (they do not fit in cache at 10⁵ contacts). Each sum runs over the slots in order, as
-    /// a dot product at a time would.
+    /// new one last), and the right-hand side Σ W² ΔF_j f, a chunk of slots at a time for
+    /// all columns (they do not fit in cache at 10⁵ contacts). Each sum runs over the slots
+    /// in order, as a dot product at a time would.
     fn dots(&self) -> (Vec<f64>, Vec<f64>) {
-        let columns: Vec<&[f64]> = self.df.iter().map(Vec::as_slice).collect();
-        let new = *columns.last().expect("a new column");
+        let new = self.df.back().expect("a new column");
         let (w, f) = (&self.weight, &self.f);
         // -0.0: the neutral element `Iterator::sum` starts from
-        let mut gram = vec![-0.0; columns.len()];
-        let mut rhs = vec![-0.0; columns.len()];
-        for i in 0..w.len() {
-            let w2 = w[i] * w[i];
-            for ((col, g), r) in columns.iter().zip(&mut gram).zip(&mut rhs) {
-                let a = w2 * col[i];
-                *g += a * new[i];
-                *r += a * f[i];
+        let mut gram = vec![-0.0; self.df.len()];
+        let mut rhs = vec![-0.0; self.df.len()];
+        for start in (0..w.len()).step_by(CHUNK) {
+            let at = start..(start + CHUNK).min(w.len());
+            for ((col, g), r) in self.df.iter().zip(&mut gram).zip(&mut rhs) {
+                let (mut sg, mut sr) = (*g, *r);
+                for i in at.clone() {
+                    let a = w[i] * w[i] * col[i];
+                    sg += a * new[i];
+                    sr += a * f[i];
+                }
+                (*g, *r) = (sg, sr);
             }
         }
         (gram, rhs)
