@@ -33,26 +33,17 @@ pub trait InteractionLaw: Send + Sync {
         0.0
     }
 
-    /// Local solve of velocity-Signorini + Coulomb (restitution 0). `u_n` is the
-    /// gap-augmented normal velocity and `u_t` the sliding velocity the contact would have
-    /// without its own impulse; `w_nn`, `w_tt` the diagonal Delassus terms (W_tn = 0 for disks).
-    /// Returns (p_n, p_t).
-    fn solve(&self, u_n: f64, u_t: f64, w_nn: f64, w_tt: f64) -> (f64, f64) {
-        let p_n = (-u_n / w_nn).max(0.0);
-        let mu = self.friction();
-        if mu == 0.0 || p_n == 0.0 {
-            return (p_n, 0.0);
-        }
-        let bound = mu * p_n;
-        (p_n, (-u_t / w_tt).clamp(-bound, bound))
-    }
-
-    /// A relaxed impulse (`NlgsParams::relax`) brought back into the admissible set,
-    /// `p_n ≥ 0`, `|p_t| ≤ μ p_n`: a law that overrides `solve` overrides this with it.
+    /// The local solve of velocity-Signorini + Coulomb (restitution 0): the admissible set
+    /// `p_n ≥ 0`, `|p_t| ≤ μ p_n` and the projection onto it. With the diagonal Delassus
+    /// terms of disks (W_tn = 0) the exact local solution is this projection of the
+    /// Gauss-Seidel trial impulse p − W⁻¹ u, u the contact's current (gap-augmented)
+    /// velocity; a relaxed impulse (`NlgsParams::relax`) is projected the same way.
     fn project(&self, p_n: f64, p_t: f64) -> (f64, f64) {
         let p_n = p_n.max(0.0);
         let bound = self.friction() * p_n;
-        (p_n, p_t.clamp(-bound, bound))
+        // + 0.0 turns the clamp's -0.0 (bound 0, p_t < 0) into +0.0: a frictionless or open
+        // contact keeps p_t = +0.0, bit for bit what skipping its tangential solve keeps.
+        (p_n, p_t.clamp(-bound, bound) + 0.0)
     }
 }
 

@@ -48,6 +48,12 @@ fn lever(ri: f64, rj: f64) -> f64 {
     if rj > 0.0 { ri * rj / (ri + rj) } else { ri }
 }
 
+/// 1/w, and 0 for w = 0 (`Row::m_nn`).
+#[inline]
+fn inverse(w: f64) -> f64 {
+    if w > 0.0 { 1.0 / w } else { 0.0 }
+}
+
 /// Applies the impulse increment (dp_n, dp_t, dp_r) of contact `c` to its bodies.
 #[inline]
 fn apply(c: &Contact, b: &mut Bodies, dp_n: f64, dp_t: f64, dp_r: f64) {
@@ -120,6 +126,10 @@ struct Row {
     shift: f64,
     w_nn: f64,
     w_tt: f64,
+    /// 1/W_nn and 1/W_tt, so that the local solve multiplies where it would divide; 0 where
+    /// W is 0 (two bodies held fixed: the contact cannot move them and keeps its impulse).
+    m_nn: f64,
+    m_tt: f64,
     p_n: f64,
     p_t: f64,
     p_r: f64,
@@ -175,7 +185,7 @@ unsafe fn update_row<L: InteractionLaw>(r: &mut Row, s: Sweep<L>) -> Update {
     }
 }
 
-/// Signorini and Coulomb together (the law's local solver).
+/// Signorini and Coulomb together: the law's projection of the Gauss-Seidel trial impulse.
 ///
 /// # Safety
 /// As `update_row`.
@@ -190,9 +200,11 @@ unsafe fn update_contact<L: InteractionLaw>(
     // SAFETY: per the contract of `update_row`.
     let (bi, bj) = unsafe { (&mut *dofs.add(r.i as usize), *dofs.add(r.j as usize)) };
     let dv = bi.v - bj.v;
-    let hat_n = dv.dot(&r.n) - r.w_nn * r.p_n + r.shift;
+    // The Gauss-Seidel trial impulse p − W⁻¹ u (diagonal W, W_tn = 0 for disks), with the
+    // gap-augmented normal velocity, projected onto the law's admissible set.
+    let trial_n = r.p_n - r.m_nn * (dv.dot(&r.n) + r.shift);
     let law = laws.get(r.law);
-    // p_old + ω (p_GS - p_old), projected; skipped at ω = 1 to keep plain NLGS's bits.
+    // p_old + ω (p_GS - p_old), projected; skipped at ω = 1.
     let relaxed = |new: (f64, f64), old: (f64, f64)| {
         if relax == 1.0 {
             new
@@ -205,7 +217,7 @@ unsafe fn update_contact<L: InteractionLaw>(
     };
     if !r.frictional {
         // μ = 0: p_t stays 0 and no spin changes, so only the normal row is solved.
-        let p_n = law.solve(hat_n, 0.0, r.w_nn, r.w_tt).0;
+        let p_n = trial_n.max(0.0);
         let p_n = relaxed((p_n, 0.0), (r.p_n, 0.0)).0;
         let p = (p_n - r.p_n) * r.n;
         bi.v += bi.im * p;
@@ -218,7 +230,7 @@ unsafe fn update_contact<L: InteractionLaw>(
     }
     let t = perp(r.n);
     let u_t = dv.dot(&t) - bi.r * bi.w - bj.r * bj.w;
-    let gs = law.solve(hat_n, u_t - r.w_tt * r.p_t, r.w_nn, r.w_tt);
+    let gs = law.project(trial_n, r.p_t - r.m_tt * u_t);
     let (p_n, p_t) = relaxed(gs, (r.p_n, r.p_t));
     // SAFETY: per the contract of `update_row`.
     unsafe { move_impulse(r, dofs, n_bodies, p_n, p_t) };
@@ -377,6 +389,8 @@ pub fn solve<L: InteractionLaw>(
             shift: c.gap.max(0.0) * data.gap_rate,
             w_nn: c.w_nn,
             w_tt: c.w_tt,
+            m_nn: inverse(c.w_nn),
+            m_tt: inverse(c.w_tt),
             p_n: c.p_n,
             p_t: c.p_t,
             p_r: c.p_r,
@@ -821,6 +835,8 @@ mod tests {
             shift: 0.0,
             w_nn: 1.0,
             w_tt: 1.0,
+            m_nn: 1.0,
+            m_tt: 1.0,
             p_n: 0.0,
             p_t: 0.0,
             p_r: 0.0,

@@ -11,8 +11,11 @@ use serde::de::DeserializeOwned;
 /// `MpmPacking` and `Analysed` added last; version 5 adds the rolling impulse to contacts;
 /// version 7 the NLGS's Anderson depth to the solver settings a scene carries; version 8
 /// the inertial number to a packing's rows and figures; version 9 the islands switch to the
-/// solver settings a scene carries; version 10 the sleeping settings and state.
-pub const FORMAT_VERSION: u32 = 10;
+/// solver settings a scene carries; version 10 the sleeping settings and state. Version 11
+/// changes no layout: the NLGS's local solve multiplies by the inverse diagonal Delassus
+/// terms instead of dividing, which moves every result at round-off, so checkpoints of
+/// earlier builds are recomputed rather than mixed with this build's.
+pub const FORMAT_VERSION: u32 = 11;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())
