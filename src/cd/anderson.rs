@@ -40,7 +40,8 @@ pub struct Anderson {
     spare: Vec<Vec<f64>>,
 }
 
-/// Slots per chunk of the passes over the columns: 9 columns' chunks fit in L1.
+/// Slots per chunk of the passes over the columns: a chunk of each of the m + 2 arrays a
+/// pass reads (about 20 KiB at m = 8) fits in L1.
 const CHUNK: usize = 256;
 
 impl Anderson {

@@ -1,6 +1,7 @@
-//! Interaction laws: small local solvers called from the one generic NLGS loop
-//! (LMGC90-style). A law decides the impulse of one contact given the local velocity
-//! without its own contribution; it may also add an explicit smooth force (BPM cohesion).
+//! Interaction laws, called from the one generic NLGS loop (LMGC90-style): a law gives a
+//! contact's friction, its rolling resistance and the projection onto its admissible set
+//! (the loop's local solve projects the Gauss-Seidel trial impulse), and may add an explicit
+//! smooth force (BPM cohesion).
 
 use serde::{Deserialize, Serialize};
 
@@ -33,17 +34,20 @@ pub trait InteractionLaw: Send + Sync {
         0.0
     }
 
-    /// The local solve of velocity-Signorini + Coulomb (restitution 0): the admissible set
-    /// `p_n ≥ 0`, `|p_t| ≤ μ p_n` and the projection onto it. With the diagonal Delassus
-    /// terms of disks (W_tn = 0) the exact local solution is this projection of the
-    /// Gauss-Seidel trial impulse p − W⁻¹ u, u the contact's current (gap-augmented)
-    /// velocity; a relaxed impulse (`NlgsParams::relax`) is projected the same way.
+    /// The local solve of velocity-Signorini + Coulomb (restitution 0) on the admissible set
+    /// `p_n ≥ 0`, `|p_t| ≤ μ p_n`: p_n clamped first, then p_t within ±μ p_n. Applied to
+    /// the Gauss-Seidel trial impulse p − W⁻¹ u (u the contact's current, gap-augmented
+    /// velocity) this is the exact local solution, because a disk contact's own Delassus
+    /// block is diagonal (W_tn = 0); a relaxed impulse (`NlgsParams::relax`) is brought back
+    /// the same way.
     fn project(&self, p_n: f64, p_t: f64) -> (f64, f64) {
         let p_n = p_n.max(0.0);
         let bound = self.friction() * p_n;
-        // + 0.0 turns the clamp's -0.0 (bound 0, p_t < 0) into +0.0: a frictionless or open
-        // contact keeps p_t = +0.0, bit for bit what skipping its tangential solve keeps.
-        (p_n, p_t.clamp(-bound, bound) + 0.0)
+        // max/min rather than clamp, which panics on a NaN bound (a diverged run is reported
+        // by the guard instead); + 0.0 turns -0.0 (bound 0, p_t < 0) into +0.0, so that a
+        // frictionless or open contact keeps p_t = +0.0, bit for bit what skipping its
+        // tangential solve keeps.
+        (p_n, p_t.max(-bound).min(bound) + 0.0)
     }
 }
 
@@ -96,5 +100,24 @@ impl<L: InteractionLaw> LawTable<L> {
 
     pub fn any_friction(&self) -> bool {
         self.laws.iter().any(|l| l.friction() > 0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_projection_clamps_normal_then_tangential_and_keeps_zero_positive() {
+        let (stick, free) = (Coulomb { mu: 0.5 }, Coulomb { mu: 0.0 });
+        assert_eq!(stick.project(2.0, -3.0), (2.0, -1.0));
+        assert_eq!(stick.project(2.0, 0.4), (2.0, 0.4));
+        // an open contact, and a frictionless one: p_t is +0.0 bit for bit
+        for (p_n, p_t) in [stick.project(-1.0, -1.0), free.project(1.0, -1.0)] {
+            assert!(p_n >= 0.0);
+            assert_eq!(p_t.to_bits(), 0.0f64.to_bits());
+        }
+        // a diverged impulse (0 × ∞ bound) gives a non-finite value for the guard, no panic
+        assert!(free.project(f64::INFINITY, 1.0).0.is_infinite());
     }
 }

@@ -51,6 +51,7 @@ fn lever(ri: f64, rj: f64) -> f64 {
 /// 1/w, and 0 for w = 0 (`Row::m_nn`).
 #[inline]
 fn inverse(w: f64) -> f64 {
+    debug_assert!(w >= 0.0, "a diagonal Delassus term {w}");
     if w > 0.0 { 1.0 / w } else { 0.0 }
 }
 
@@ -217,7 +218,7 @@ unsafe fn update_contact<L: InteractionLaw>(
     };
     if !r.frictional {
         // μ = 0: p_t stays 0 and no spin changes, so only the normal row is solved.
-        let p_n = trial_n.max(0.0);
+        let p_n = law.project(trial_n, 0.0).0;
         let p_n = relaxed((p_n, 0.0), (r.p_n, 0.0)).0;
         let p = (p_n - r.p_n) * r.n;
         bi.v += bi.im * p;
@@ -276,7 +277,13 @@ unsafe fn update_rolling(r: &mut Row, mu_r: f64, dofs: *mut Dof, n_bodies: u32) 
     let w_rr = l * l * (inv_i + inv_j);
     let hat_r = l * (bi.w - bj.w) - w_rr * r.p_r;
     let bound = mu_r * r.p_n;
-    let p_r = (-hat_r / w_rr).clamp(-bound, bound);
+    // W_rr = 0: neither body can turn (held fixed, or a fixed disk on a wall); the impulse
+    // cannot act and stays as it is.
+    let p_r = if w_rr > 0.0 {
+        (-hat_r / w_rr).clamp(-bound, bound)
+    } else {
+        r.p_r
+    };
     let m = l * (p_r - r.p_r);
     bi.w += inv_i * m;
     if r.j < n_bodies {
@@ -840,6 +847,46 @@ mod tests {
             p_n: 0.0,
             p_t: 0.0,
             p_r: 0.0,
+        }
+    }
+
+    /// Friction and rolling resistance, for the fixed-bodies test.
+    struct Rolling;
+    impl InteractionLaw for Rolling {
+        fn friction(&self) -> f64 {
+            0.5
+        }
+        fn rolling(&self) -> f64 {
+            0.1
+        }
+    }
+
+    #[test]
+    fn a_contact_between_bodies_held_fixed_keeps_its_impulses_and_stays_finite() {
+        // two disks held fixed (1/m = r/I = 0), touching: W = 0 in every component
+        let fixed = Dof {
+            v: V2::zeros(),
+            w: 0.0,
+            im: 0.0,
+            ir: 0.0,
+            r: 1e-3,
+        };
+        let mut dofs = [fixed, fixed];
+        let mut r = row(0, 1);
+        (r.w_nn, r.w_tt, r.m_nn, r.m_tt) = (0.0, 0.0, inverse(0.0), inverse(0.0));
+        (r.rolling, r.shift, r.p_n, r.p_t, r.p_r) = (true, 0.5, 2.0, 0.3, 0.01);
+        let laws = LawTable::new(Rolling, Rolling, vec![]);
+        let sweep = Sweep {
+            dofs: Shared(dofs.as_mut_ptr()),
+            n_bodies: 2,
+            laws: &laws,
+            relax: 1.0,
+        };
+        // SAFETY: one thread; bodies 0 and 1 exist.
+        let u = unsafe { update_row(&mut r, sweep) };
+        assert_eq!(u.new, [2.0, 0.3, 0.01]);
+        for d in dofs {
+            assert_eq!((d.v, d.w), (V2::zeros(), 0.0));
         }
     }
 
