@@ -2,7 +2,7 @@
 # The full `pipelines/paper.yaml` run, one compaction case per process, resumable across
 # machine sessions (README "Cost of the paper's scene"). A BPM case at the paper's particle
 # size takes longer than a session, so each case runs in its own output folder (one run per
-# folder holds the folder's lock) with snapshots every 2000 steps (`output.snapshot_every`
+# folder holds the folder's lock) with snapshots every few minutes (`output.snapshot_every`
 # names no node), and the same command resumes it from its last snapshot. Resume with the
 # binary that started the case: a build with other bits has another FORMAT_VERSION, hence
 # other node names, and would start the case over.
@@ -26,14 +26,17 @@ case $what in
   run)
     case_name=${4:?case}
     case $case_name in
-      bpm-mu0) sets=(discretise.method=bpm compact.friction=0.0) ;;
-      bpm-mu0.5) sets=(discretise.method=bpm compact.friction=0.5) ;;
+      # a snapshot every few minutes: a BPM step takes 0.05-0.5 s, an MPM step 0.1-18 s
+      bpm-mu0) sets=(discretise.method=bpm compact.friction=0.0 output.snapshot_every=2000) ;;
+      bpm-mu0.5) sets=(discretise.method=bpm compact.friction=0.5 output.snapshot_every=2000) ;;
       # the BPM solver settings are refused without a BPM case; they name no MPM node
-      mpm-mu0) sets=(discretise.method=mpm compact.friction=0.0 compact.solver=null) ;;
-      mpm-mu0.5) sets=(discretise.method=mpm compact.friction=0.5 compact.solver=null) ;;
+      mpm-mu0) sets=(discretise.method=mpm compact.friction=0.0 compact.solver=null
+        output.snapshot_every=25) ;;
+      mpm-mu0.5) sets=(discretise.method=mpm compact.friction=0.5 compact.solver=null
+        output.snapshot_every=25) ;;
       *) echo "paper_full.sh: unknown case '$case_name'" >&2; exit 2 ;;
     esac
-    args=(--set include=[] --set output.snapshot_every=2000)
+    args=(--set include=[])
     for s in "${sets[@]}"; do args+=(--set "$s"); done
     mkdir -p "$root/$case_name"
     "$bin" pipeline run "$pipeline" --out "$root/$case_name" "${args[@]}" --until compact \
