@@ -7,8 +7,8 @@ use softgrain::compaction::PackingCompacted;
 use softgrain::config::Method;
 use softgrain::stages::StageState;
 
-/// 12 grains, inter-grain friction `mu`, to ε = 0.3, a row every 10 steps; also returns
-/// the run folder.
+/// 12 grains, inter-grain friction `mu`, to ε = 0.3, a row every 10 steps (the MPM pace
+/// `output.mpm_every`, with `output.every` far beyond the run); also returns the run folder.
 fn small_packing(tag: &str, mu: f64) -> (PackingCompacted, std::path::PathBuf) {
     small_packing_with(tag, mu, "discretise.mpm.contact=node")
 }
@@ -24,7 +24,8 @@ fn small_packing_with(tag: &str, mu: f64, set: &str) -> (PackingCompacted, std::
             "prepare.grains=12",
             &format!("compact.friction={mu}"),
             "compact.final_strain=0.3",
-            "output.every=10",
+            "output.every=100000",
+            "output.mpm_every=10",
             set,
         ],
     );
@@ -38,6 +39,13 @@ fn small_packing_with(tag: &str, mu: f64, set: &str) -> (PackingCompacted, std::
 fn a_small_mpm_packing_jams_with_phi_following_the_box_and_the_grain_area() {
     let (c, dir) = small_packing("mpm-packing-pipe", 0.5);
     assert_eq!(c.method, Method::Mpm);
+    // recorded at the MPM pace: a row every 10 steps
+    assert!(
+        c.rows.len() as u64 >= c.figures.steps / 10,
+        "{} rows for {} steps",
+        c.rows.len(),
+        c.figures.steps
+    );
     assert_eq!(c.grains, 12);
     let rows = &c.rows;
     let phi0 = 0.65;

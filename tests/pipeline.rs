@@ -205,6 +205,10 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(hashes(&dir, GRAPH, &["output.snapshot_every=123"]), base);
     let r = hashes(&dir, GRAPH, &["output.every=123"]);
     assert_eq!(changed(&r).len(), base.len());
+    // the MPM compactions' own pace renames them alone, and at `every` nothing
+    let r = hashes(&dir, GRAPH, &["output.mpm_every=7"]);
+    assert_eq!(changed(&r), ["mpm-mu0", "mpm-mu0.5"]);
+    assert_eq!(hashes(&dir, GRAPH, &["output.mpm_every=100"]), base);
     // a case is named by its own friction and particle range, not by the lists: adding a
     // friction value or dropping one leaves the other cases' names (and work) alone
     let more = hashes(&dir, GRAPH, &["compact.friction=[0.0,0.25,0.5]"]);

@@ -204,6 +204,9 @@ impl Default for Solver {
 pub struct Output {
     /// Steps between VTK frames and recorded rows (0: final frame only).
     pub every: u64,
+    /// The same for MPM compactions (packings and single grains), whose steps are few and
+    /// long: a pipeline with both methods records each at its own pace. Absent: `every`.
+    pub mpm_every: Option<u64>,
     /// Steps between resumable snapshots of long stages (0: none).
     pub snapshot_every: u64,
     /// Write VTK frames at all.
@@ -214,8 +217,19 @@ impl Default for Output {
     fn default() -> Self {
         Output {
             every: d::OUTPUT_EVERY,
+            mpm_every: None,
             snapshot_every: d::SNAPSHOT_EVERY,
             vtk: true,
+        }
+    }
+}
+
+impl Output {
+    /// Steps between frames and rows of a compaction by `method`.
+    pub fn every_for(&self, method: Method) -> u64 {
+        match method {
+            Method::Mpm => self.mpm_every.unwrap_or(self.every),
+            Method::Bpm => self.every,
         }
     }
 }

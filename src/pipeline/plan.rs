@@ -175,6 +175,16 @@ fn canonical_output(o: &Output) -> serde_json::Value {
     v.as_object_mut()
         .expect("a section")
         .remove("snapshot_every");
+    v.as_object_mut().expect("a section").remove("mpm_every");
+    v
+}
+
+/// The output settings an MPM compaction node is named by: `every` is the MPM pace
+/// (`mpm_every` hashed under its own name would rename every other node of a pipeline
+/// that sets it; under `every` the nodes of a pipeline without it keep their names).
+fn canonical_mpm_output(o: &Output) -> serde_json::Value {
+    let mut v = canonical_output(o);
+    v["every"] = json!(o.every_for(Method::Mpm));
     v
 }
 
@@ -219,6 +229,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
     };
     let solver = canonical_solver(&p.solver);
     let output = canonical_output(&p.output);
+    let mpm_output = canonical_mpm_output(&p.output);
     let mut prepare = serde_json::to_value(&p.prepare).expect("parameters serialise");
     if p.prepare.sleep.is_none() {
         // (added later: absent, it keeps the names of pipelines that do not set it)
@@ -288,6 +299,10 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                 let solver = match nodes[*up].method {
                     Some(Method::Bpm) => &bpm_solver,
                     _ => &solver,
+                };
+                let output = match nodes[*up].method {
+                    Some(Method::Mpm) => &mpm_output,
+                    _ => &output,
                 };
                 let params = json!({"compact": compact, "solver": solver, "output": output});
                 let method = nodes[*up].method;

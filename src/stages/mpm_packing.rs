@@ -217,7 +217,7 @@ pub fn compact(
     };
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
-    let every = p.output.every.max(1);
+    let every = p.output.every_for(Method::Mpm).max(1);
     if st.pk.steps == 0 && p.output.vtk {
         write_frame(ctx, &mut st).map_err(io)?;
     }

@@ -3,7 +3,7 @@
 //! compression between two plates (`crate::mpm::SingleGrain`).
 
 use super::frames::FrameLog;
-use crate::config::{Compact, Model, Mpm, Pipeline, Shape};
+use crate::config::{Compact, Method, Model, Mpm, Pipeline, Shape};
 use crate::io::vtk::{Data, Frame};
 use crate::mpm::driver::{PointState, Row, RunStats, SingleGrain, SingleGrainParams};
 use crate::mpm::material::{Material, MaterialKind};
@@ -134,7 +134,7 @@ pub fn compact(
     };
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
-    let every = p.output.every.max(1);
+    let every = p.output.every_for(Method::Mpm).max(1);
     if run.0.stats.steps == 0 && p.output.vtk {
         write_frame(ctx, &mut run).map_err(io)?;
     }
