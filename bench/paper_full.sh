@@ -39,7 +39,9 @@ case $what in
     args=(--set include=[])
     for s in "${sets[@]}"; do args+=(--set "$s"); done
     mkdir -p "$root/$case_name"
-    "$bin" pipeline run "$pipeline" --out "$root/$case_name" "${args[@]}" --until compact \
+    # wall time and peak memory of each stretch of the run, appended to ROOT/CASE.time
+    /usr/bin/time -a -o "$root/$case_name.time" -f "%e s wall, %M KiB peak RSS" \
+      "$bin" pipeline run "$pipeline" --out "$root/$case_name" "${args[@]}" --until compact \
       --jobs 1 >> "$root/$case_name.log" 2>&1
     ;;
   merge)
