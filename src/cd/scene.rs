@@ -98,6 +98,9 @@ pub struct Scene<L> {
     /// Per contact of the step: whether it is in `order` (kept to spare an allocation).
     #[serde(skip)]
     in_solve: Vec<bool>,
+    /// The walls' imposed velocities this step (kept to spare an allocation).
+    #[serde(skip)]
+    wall_vel: Vec<V2>,
     #[serde(skip)]
     scratch: nlgs::Scratch,
     #[serde(skip)]
@@ -129,6 +132,7 @@ impl<L: InteractionLaw> Scene<L> {
             neighbours: Neighbours::default(),
             order: Vec::new(),
             in_solve: Vec::new(),
+            wall_vel: Vec::new(),
             scratch: nlgs::Scratch::default(),
             detection: Detection::default(),
             energy: EnergyGuard::default(),
@@ -183,7 +187,9 @@ impl<L: InteractionLaw> Scene<L> {
         if shortcuts.warm_start {
             warm_start(&mut contacts, &self.contacts);
         }
-        let wall_vel: Vec<V2> = self.walls.iter().map(|w| w.velocity).collect();
+        let mut wall_vel = std::mem::take(&mut self.wall_vel);
+        wall_vel.clear();
+        wall_vel.extend(self.walls.iter().map(|w| w.velocity));
         if self.params.sleep.is_some() {
             // A sleeping group wakes when an awake disk or a moving wall can reach it within
             // the step: the global alert's margin, 2h (|v_i| + |v_j| + h|g|).
@@ -360,6 +366,7 @@ impl<L: InteractionLaw> Scene<L> {
             self.sleep.settle(p, h, &mut self.bodies, &contacts, joined);
         }
         self.in_solve = in_solve;
+        self.wall_vel = wall_vel;
         // the last step's list becomes the next step's buffer
         detection.spare = std::mem::replace(&mut self.contacts, contacts);
         self.detection = detection;
