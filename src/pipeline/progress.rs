@@ -22,7 +22,9 @@ pub struct Progress {
 struct Log {
     label: String,
     total: u64,
-    start: Instant,
+    /// The first position reported and when: a stage resumed from a snapshot starts at
+    /// its snapshot's position, and its rate counts from there.
+    origin: Option<(u64, Instant)>,
     last_line: Instant,
     /// Position at the last line (0 before the first).
     last_pos: u64,
@@ -49,7 +51,7 @@ impl Progress {
             Arc::new(Mutex::new(Log {
                 label: label.to_string(),
                 total: total.max(1),
-                start: now,
+                origin: None,
                 last_line: now,
                 last_pos: 0,
             }))
@@ -72,7 +74,12 @@ impl Progress {
         if let Some(log) = &self.log {
             log.lock().expect("progress log").line(pos, &msg);
         }
+        let first = self.bar.position() == 0;
         self.bar.set_position(pos);
+        if first {
+            // a resumed stage's first position is its snapshot's, not this run's work
+            self.bar.reset_eta();
+        }
         self.bar.set_message(msg);
     }
 
@@ -88,28 +95,49 @@ impl Log {
         let pos = pos.min(self.total);
         let percent = |pos: u64| pos * 100 / self.total;
         let now = Instant::now();
+        let (from, start) = *self.origin.get_or_insert((pos, now));
         let due = percent(pos) / LOG_PERCENT > percent(self.last_pos) / LOG_PERCENT
             || (pos > self.last_pos && now - self.last_line >= LOG_INTERVAL);
         if !due || pos == 0 {
             return;
         }
-        let elapsed = now - self.start;
-        // Remaining time at the mean rate so far.
-        let eta = elapsed.mul_f64((self.total - pos) as f64 / pos as f64);
+        let elapsed = now - start;
+        let eta = remaining(elapsed, from, pos, self.total).map_or("?".into(), clock);
         eprintln!(
-            "{:>22} {:>3}% after {}, eta {} ({msg})",
+            "{:>22} {:>3}% after {}, eta {eta} ({msg})",
             self.label,
             percent(pos),
             clock(elapsed),
-            clock(eta)
         );
         self.last_line = now;
         self.last_pos = pos;
     }
 }
 
+/// Remaining time at the mean rate since the run reached `from` (`elapsed` ago); `None`
+/// before it has advanced.
+fn remaining(elapsed: Duration, from: u64, pos: u64, total: u64) -> Option<Duration> {
+    (pos > from).then(|| elapsed.mul_f64(total.saturating_sub(pos) as f64 / (pos - from) as f64))
+}
+
 /// h:mm:ss.
 fn clock(d: Duration) -> String {
     let s = d.as_secs();
     format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_resumed_run_estimates_from_its_own_rate() {
+        let min = Duration::from_secs(60);
+        // fresh: 10% in 1 min leaves 9 min
+        assert_eq!(remaining(min, 0, 10, 100), Some(9 * min));
+        // resumed at 23%: 3% in 15 min leaves 74% at 5 min per percent
+        assert_eq!(remaining(15 * min, 23, 26, 100), Some(370 * min));
+        // not advanced yet: no estimate rather than a division by zero
+        assert_eq!(remaining(min, 23, 23, 100), None);
+    }
 }
