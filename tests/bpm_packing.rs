@@ -75,7 +75,12 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
         last.z,
         last.z_star
     );
-    assert!(last.rattlers < 4, "{} rattlers", last.rattlers);
+    // Rattlers come from one step's force network, which flickers in this small, fast
+    // packing: between consecutive rows of (0.45, 0.5] the count swings over 0-8 of the 16,
+    // and a build with other rounding (session 22's trial of `powi` in Eq. 1) moved the last
+    // row's from 0 to 4. So the window's mean, as for σ below: under a quarter of the grains.
+    let rattlers = mean(rows, 0.45, 0.5, |r| r.rattlers as f64);
+    assert!(rattlers < 4.0, "{rattlers} rattlers over (0.45, 0.5]");
     // quasi-static balance without gravity: the floor carries what the top wall pushes
     let (bottom, top) = (
         mean(rows, 0.4, 0.5, |r| r.sigma),
