@@ -401,6 +401,33 @@ fn a_longer_bpm_compaction_continues_a_finished_shorter_one_to_the_same_bits() {
     );
 }
 
+/// The kept end state is the furthest one: a shorter run finishing after a longer one in the
+/// same folder (it starts from zero, as the kept state is past its own end) leaves the longer
+/// one's end for the next, longer run to continue from.
+#[test]
+fn a_shorter_compaction_finishing_last_keeps_the_longer_ones_end_state() {
+    let dir = temp_dir("cont-keep");
+    let out = dir.join("out");
+    let run = |strain: &str| {
+        let file = write(
+            &dir,
+            &format!("g{strain}.yaml"),
+            &PACKING.replace("final_strain: 0.3", &format!("final_strain: {strain}")),
+        );
+        let o = run_loudly(&file, &out);
+        assert!(o.status.success(), "{}", stderr(&o));
+        format!("{}{}", stdout(&o), stderr(&o))
+    };
+    assert!(!run("0.3").contains("continued from"));
+    assert!(!run("0.12").contains("continued from"));
+    let said = run("0.32");
+    assert!(
+        said.contains("continued from a finished run at ε = 0.30"),
+        "{said}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn a_longer_mpm_compaction_continues_a_finished_shorter_one_to_the_same_bits() {
     a_longer_compaction_continues_a_shorter_one(

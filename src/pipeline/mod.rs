@@ -163,12 +163,23 @@ impl StageCtx {
     }
 
     /// Keeps the state at the end of the compaction loop (before the last partial recording)
-    /// for a longer run to continue from: it then passes through exactly this state.
-    pub fn save_continuation<T: Serialize>(&self, state: &T) -> std::io::Result<()> {
-        match &self.continuation {
-            Some(path) => store::save(path, state),
-            None => Ok(()),
+    /// for a longer run to continue from: it then passes through exactly this state. A kept
+    /// state that `reach`es as far or further (the strain it ended at) stays: a shorter run
+    /// that finishes after a longer one must not replace the longer one's end.
+    pub fn save_continuation<T: Serialize + DeserializeOwned>(
+        &self,
+        state: &T,
+        reach: impl Fn(&T) -> f64,
+    ) -> std::io::Result<()> {
+        let Some(path) = &self.continuation else {
+            return Ok(());
+        };
+        if let Ok(Some(Ok(kept))) = store::load::<T>(path)
+            && reach(&kept) >= reach(state)
+        {
+            return Ok(());
         }
+        store::save(path, state)
     }
 
     /// Wall seconds spent on this stage: this run's and those of the runs it resumed.

@@ -214,7 +214,7 @@ pub fn run(
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }
-    ctx.save_continuation(&st).map_err(io)?;
+    ctx.save_continuation(&st, strain).map_err(io)?;
     if st.since_record > 0 {
         record(p, ctx, &mut st).map_err(io)?;
     }

@@ -252,7 +252,8 @@ pub fn compact(
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }
-    ctx.save_continuation(&st).map_err(io)?;
+    ctx.save_continuation(&st, |s: &Running| s.pk.strain())
+        .map_err(io)?;
     if st.since > 0 {
         record(&mut st, mu);
         if p.output.vtk {
