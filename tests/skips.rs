@@ -223,7 +223,7 @@ fn the_bpm_warm_start_saves_sweeps_and_keeps_the_plateau_within_its_scatter() {
     let file = pipeline("single-grain-bpm.yaml");
     let mut sets = BPM_GRAIN.to_vec();
     sets[0] = "prepare.radius=2.5e-3";
-    sets.push("compact.final_strain=0.3");
+    sets.push("compact.final_strain=0.4");
     let (a, b) = (
         run("skip-bpm-ref", &file, &sets, "", 2),
         run("skip-bpm-cold", &file, &sets, "warm_start", 2),
@@ -241,18 +241,24 @@ fn the_bpm_warm_start_saves_sweeps_and_keeps_the_plateau_within_its_scatter() {
         warm < 0.7 * cold,
         "sweeps with the warm start {warm}, without {cold}"
     );
-    // the plastic plateau (ε in [0.1, 0.3]) agrees within three standard errors. The force
+    // the plastic plateau (ε in [0.1, 0.4]) agrees within three standard errors. The force
     // still rises through that range (the grain hardens as it flattens), in
     // both runs alike, so the two are compared window by window: the standard error of the
-    // paired differences counts the runs' fluctuations, not the trend they share.
+    // paired differences counts the runs' fluctuations, not the trend they share. Up to
+    // ε = 0.3 only, 3σ was 29-36% of the plateau depending on the build's rounding, too
+    // close to the sensitivity asked below; to 0.4 it is 24% (FORMAT_VERSION 11).
     let (wa, wb) = (
-        window_means(&column(ta, "force"), 0.1, 0.3, 10),
-        window_means(&column(tb, "force"), 0.1, 0.3, 10),
+        window_means(&column(ta, "force"), 0.1, 0.4, 15),
+        window_means(&column(tb, "force"), 0.1, 0.4, 15),
     );
     let diff: Vec<f64> = wa.iter().zip(&wb).map(|(x, y)| x - y).collect();
     let (d, sd) = mean_and_error(&diff);
     let (pa, pb) = (mean_and_error(&wa).0, mean_and_error(&wb).0);
     let bound = 3.0 * sd;
+    eprintln!(
+        "plateau {pa:.1} and {pb:.1} N/m, paired difference {d:.1} ± {sd:.1} (3σ = {:.1}% of it)",
+        100.0 * bound / pa
+    );
     assert!(
         d.abs() <= bound,
         "plateau {pa:.1} N/m with, {pb:.1} N/m without the warm start: {d:.1} ± {sd:.1} apart"
