@@ -14,8 +14,9 @@ use serde::de::DeserializeOwned;
 /// solver settings a scene carries; version 10 the sleeping settings and state. Version 11
 /// changes no layout: the NLGS's local solve multiplies by the inverse diagonal Delassus
 /// terms instead of dividing, which moves every result at round-off, so checkpoints of
-/// earlier builds are recomputed rather than mixed with this build's.
-pub const FORMAT_VERSION: u32 = 11;
+/// earlier builds are recomputed rather than mixed with this build's. Version 12, likewise:
+/// Eq. (1)'s power of a whole γ multiplies instead of calling `powf` (`bpm/law.rs`).
+pub const FORMAT_VERSION: u32 = 12;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())
