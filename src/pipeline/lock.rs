@@ -7,6 +7,9 @@ use std::io::{Read, Seek, Write};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 
+/// How many times `take` waits (1 ms each) for a status probe to let go before refusing.
+const PROBE_WAITS: u32 = 1000;
+
 pub struct Lock {
     path: PathBuf,
     /// Holds the lock until it is closed.
@@ -22,6 +25,7 @@ impl Lock {
         }
         // A holder removes the file before it closes it, so the file opened here may be one
         // that was just removed: locked, it is ours only if `path` still names it.
+        let mut probes_met = 0;
         loop {
             let mut file = OpenOptions::new()
                 .read(true)
@@ -32,6 +36,16 @@ impl Lock {
                 .map_err(err)?;
             match file.try_lock() {
                 Ok(()) => {}
+                // A shared holder is `holder`'s probe (`pipeline status`), which lets go at
+                // once: wait for it rather than refuse. A run holds the lock exclusively.
+                Err(TryLockError::WouldBlock)
+                    if probes_met < PROBE_WAITS && file.try_lock_shared().is_ok() =>
+                {
+                    probes_met += 1;
+                    drop(file);
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                    continue;
+                }
                 Err(TryLockError::WouldBlock) => {
                     let mut holder = String::new();
                     let _ = file.read_to_string(&mut holder);
@@ -63,7 +77,7 @@ impl Lock {
 }
 
 /// The pid a run holding the lock at `path` wrote there, if a run holds it now. Probes
-/// with a shared lock, released at once: a run starting at that instant would be refused.
+/// with a shared lock, released at once; a run starting at that instant waits for it.
 pub fn holder(path: &Path) -> Option<String> {
     let mut file = File::open(path).ok()?;
     match file.try_lock_shared() {
@@ -109,6 +123,31 @@ mod tests {
             let taken = held.iter().filter(|r| r.is_ok()).count();
             assert_eq!(taken, 1, "round {round}: {taken} holders");
         }
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_run_starting_during_a_status_probe_waits_for_it() {
+        let dir = std::env::temp_dir().join(format!("softgrain-probe-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(".lock");
+        // a probe that holds its shared lock far longer than `holder` does
+        let probe = File::create(&path).unwrap();
+        probe.lock_shared().unwrap();
+        let release = std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            drop(probe);
+        });
+        let lock = Lock::take(&path);
+        release.join().unwrap();
+        assert!(lock.is_ok(), "{:?}", lock.err());
+        // and a run holding the lock is still refused at once, named by its pid
+        let other = Lock::take(&path).err().unwrap();
+        assert!(
+            other.contains(&format!("pid {}", std::process::id())),
+            "{other}"
+        );
+        drop(lock);
         let _ = fs::remove_dir_all(&dir);
     }
 
