@@ -147,7 +147,14 @@ const PROGRESS: u64 = 200;
 
 // ---------------------------------------------------------------- softgrain
 
-fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams, sleep: bool) -> Outcome {
+fn run_softgrain(
+    s: &Setup,
+    seed: u64,
+    budget: f64,
+    nlgs: NlgsParams,
+    sleep: bool,
+    separate_at: Option<f64>,
+) -> Outcome {
     let mut bodies = Bodies::default();
     for (k, (x, d)) in s.pos.iter().zip(&s.diameters).enumerate() {
         bodies.push(*x, 0.5 * d, defaults::DENSITY, k as u32);
@@ -190,10 +197,31 @@ fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams, sleep: boo
     let mut floor = Vec::new();
     let trace = std::env::var_os("DEPOSIT_TRACE").is_some();
     let t0 = Instant::now();
+    // with `separate_at`: one position projection (tolerance 1e-6 <r>) the first time the
+    // rest ratio falls below it, then on until the rest test holds
+    let mut separated_at = separate_at.is_none().then_some(0);
     loop {
+        let ratio = rest_ratio(scene.bodies.translational_energy(), mass, s.d_mean);
         if scene.time > s.settle_after
-            && rest_ratio(scene.bodies.translational_energy(), mass, s.d_mean)
-                < defaults::REST_TOLERANCE
+            && separated_at.is_none()
+            && separate_at.is_some_and(|at| ratio < at)
+        {
+            let r = scene.bodies.mean_radius();
+            let sep = softgrain::cd::separate(
+                &mut scene.bodies,
+                &scene.walls,
+                &scene.contacts,
+                1e-6 * r,
+                10_000,
+            );
+            if trace {
+                eprintln!("  separation at step {}: {sep:?}", scene.steps);
+            }
+            separated_at = Some(scene.steps);
+        }
+        if scene.time > s.settle_after
+            && separated_at.is_some_and(|k| scene.steps > k)
+            && ratio < defaults::REST_TOLERANCE
         {
             out.at_rest = true;
             break;
@@ -420,9 +448,16 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(engine: &str, s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams, sleep: bool) {
+fn child(
+    engine: &str,
+    s: &Setup,
+    seed: u64,
+    budget: f64,
+    nlgs: NlgsParams,
+    (sleep, separate_at): (bool, Option<f64>),
+) {
     let mut out = match engine {
-        "softgrain" => run_softgrain(s, seed, budget, nlgs, sleep),
+        "softgrain" => run_softgrain(s, seed, budget, nlgs, sleep, separate_at),
         "rapier" => run_rapier(s, budget, false),
         "rapier-froude" => run_rapier(s, budget, true),
         _ => panic!("unknown engine {engine}"),
@@ -476,6 +511,9 @@ fn main() {
         islands: args.iter().any(|a| a == "--islands"),
     };
     let sleep = args.iter().any(|a| a == "--sleep");
+    // one position projection (`cd::separate`) once the rest ratio falls below this
+    let separate_at: Option<f64> =
+        arg(&args, "--separate-at").map(|s| s.parse().expect("--separate-at"));
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
@@ -485,7 +523,7 @@ fn main() {
             seed,
             budget,
             nlgs,
-            sleep,
+            (sleep, separate_at),
         );
         return;
     }
@@ -534,6 +572,11 @@ fn main() {
                     .args(["--check-every", &nlgs.check_every.to_string()])
                     .args(nlgs.islands.then_some("--islands"))
                     .args(sleep.then_some("--sleep"))
+                    .args(
+                        separate_at
+                            .iter()
+                            .flat_map(|r| ["--separate-at".into(), r.to_string()]),
+                    )
                     .stderr(std::process::Stdio::inherit())
                     .output()
                     .expect("child run");

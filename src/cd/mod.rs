@@ -21,6 +21,7 @@ mod guard;
 mod law;
 mod nlgs;
 mod scene;
+mod separate;
 mod sleep;
 
 pub use bodies::Bodies;
@@ -29,6 +30,7 @@ pub use detect::Neighbours;
 pub use law::{Coulomb, InteractionLaw, LawTable};
 pub use nlgs::{COLOURED_MIN, NlgsParams, NlgsReport};
 pub use scene::{CdError, CdParams, Scene, StepReport};
+pub use separate::{Separation, separate};
 pub use sleep::SleepParams;
 
 /// Loops over fewer items than this run on the calling thread. Handing a loop to rayon's
