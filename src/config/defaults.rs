@@ -18,6 +18,10 @@ pub const REST_TOLERANCE: f64 = 1e-9;
 /// The rest criterion must hold this many consecutive steps: with zero restitution a
 /// packing can stop dead for an instant between two collapses.
 pub const REST_STEPS: u64 = 50;
+/// `prepare.separate_at`: the separation stops once no overlap is deeper than this
+/// fraction of the mean radius, within this many Gauss-Seidel sweeps per linearisation.
+pub const SEPARATION_TOLERANCE: f64 = 1e-6;
+pub const SEPARATION_MAX_SWEEPS: u32 = 10_000;
 /// Give up a deposit that is not at rest after this much simulated time (s).
 pub const MAX_TIME: f64 = 20.0;
 /// Deposit time step in units of sqrt(<d>/g): a disk falling one box height moves a few

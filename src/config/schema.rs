@@ -88,6 +88,12 @@ pub struct Prepare {
     /// Packing: the deposit fails if not at rest by this time (s).
     #[serde(default = "max_time")]
     pub max_time: f64,
+    /// Packing: move overlapping disks apart once (`cd::separate`), the first time the rest
+    /// measure falls below this (or at rest, if it never does), then settle to rest again;
+    /// absent: never. It lets a looser solver tolerance keep overlaps small (README, "One
+    /// separation at rest"; 1e-6 there).
+    #[serde(default)]
+    pub separate_at: Option<f64>,
     /// Put groups of touching disks to sleep once each of their disks has moved slower
     /// than `speed` (m/s, |v| + r|ω|) for `time` (s), as rapier and Box2D do
     /// (`cd/sleep.rs`); absent: no disk sleeps.

@@ -147,6 +147,16 @@ fn prepare(p: &Prepare) -> Result<(), Failure> {
     positive("prepare.density", p.density)?;
     positive("prepare.rest_tolerance", p.rest_tolerance)?;
     positive("prepare.max_time", p.max_time)?;
+    if let Some(at) = p.separate_at {
+        positive("prepare.separate_at", at)?;
+        if p.layout != Layout::Packing {
+            fail(
+                "prepare.separate_at",
+                at,
+                "applies to the packing layout only",
+            )?;
+        }
+    }
     if let Some(s) = &p.sleep {
         positive("prepare.sleep.speed", s.speed)?;
         non_negative("prepare.sleep.time", s.time)?;

@@ -48,6 +48,19 @@ pub struct Figures {
     pub kinetic_energy: f64,
     /// Disks asleep at the end (`prepare.sleep`).
     pub sleeping: usize,
+    /// The one separation of `prepare.separate_at`, if it ran.
+    pub separation: Option<Separated>,
+}
+
+/// When the deposit's overlaps were moved apart (`cd::separate`), and by how much.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Separated {
+    pub step: u64,
+    /// Deepest overlap before and after, and the largest displacement, over the mean radius.
+    pub deepest_before: f64,
+    pub deepest_after: f64,
+    pub moved: f64,
+    pub sweeps: u32,
 }
 
 /// What a snapshot holds: everything needed to continue bit for bit.
@@ -63,6 +76,13 @@ struct Running {
     settle_after: f64,
     /// Consecutive steps the packing has met the rest criterion.
     quiet_steps: u64,
+}
+
+impl Running {
+    /// A separation `prepare.separate_at` asks for and that has not run yet.
+    fn separation_due(&self, prep: &Prepare) -> bool {
+        prep.separate_at.is_some() && self.figures.separation.is_none()
+    }
 }
 
 /// Steps over which the floor force is averaged.
@@ -91,7 +111,7 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
     loop {
         let done = match prep.layout {
             Layout::Explicit => st.scene.time >= limit - 0.5 * h,
-            _ => st.quiet_steps >= defaults::REST_STEPS,
+            _ => st.quiet_steps >= defaults::REST_STEPS && !st.separation_due(prep),
         };
         if done {
             break;
@@ -111,9 +131,17 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
         f.unconverged_steps += u64::from(!r.nlgs.converged);
         f.contact_updates += r.updates;
         if prep.layout == Layout::Packing {
-            let quiet = st.scene.time > st.settle_after
-                && rest_ratio(&st.scene, prep.gravity) < prep.rest_tolerance;
+            let ratio = rest_ratio(&st.scene, prep.gravity);
+            let settling = st.scene.time > st.settle_after;
+            let quiet = settling && ratio < prep.rest_tolerance;
             st.quiet_steps = if quiet { st.quiet_steps + 1 } else { 0 };
+            if settling
+                && st.separation_due(prep)
+                && (prep.separate_at.is_some_and(|at| ratio < at)
+                    || st.quiet_steps >= defaults::REST_STEPS)
+            {
+                separate(&mut st);
+            }
             st.floor_window.push(st.scene.wall_force[0].y);
             if st.floor_window.len() > FLOOR_WINDOW {
                 st.floor_window.remove(0);
@@ -141,6 +169,27 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
         output(p, ctx, &mut st).map_err(io)?;
     }
     finish(p, ctx, st)
+}
+
+/// Moves the packing's overlapping disks apart once; the rest test then starts over, since
+/// disks lifted off a support settle again.
+fn separate(st: &mut Running) {
+    let r = st.scene.bodies.mean_radius();
+    let s = crate::cd::separate(
+        &mut st.scene.bodies,
+        &st.scene.walls,
+        &st.scene.contacts,
+        defaults::SEPARATION_TOLERANCE * r,
+        defaults::SEPARATION_MAX_SWEEPS,
+    );
+    st.figures.separation = Some(Separated {
+        step: st.scene.steps,
+        deepest_before: s.deepest_before / r,
+        deepest_after: s.deepest_after / r,
+        moved: s.moved / r,
+        sweeps: s.sweeps,
+    });
+    st.quiet_steps = 0;
 }
 
 /// Ratio of the translational kinetic energy to Σ m g <d>: the dimensionless rest measure.
@@ -288,7 +337,7 @@ fn finish(p: &Pipeline, ctx: &StageCtx, st: Running) -> Result<(Prepared, String
         .iter()
         .filter(|c| matches!(c.j, Partner::Wall(_)) && c.p_n > 0.0)
         .count();
-    let summary = format!(
+    let mut summary = format!(
         "{} disks, {} steps, {:.1} NLGS sweeps/step, floor {:.4} x weight, mean overlap {:.1e} <r>, {} wall contacts",
         f.particles,
         f.steps,
@@ -301,6 +350,13 @@ fn finish(p: &Pipeline, ctx: &StageCtx, st: Running) -> Result<(Prepared, String
         f.mean_overlap,
         wall_contacts
     );
+    if let Some(s) = &f.separation {
+        let _ = write!(
+            summary,
+            ", separated at step {} (deepest overlap {:.1e} <r>, moved up to {:.1e} <r>)",
+            s.step, s.deepest_before, s.moved
+        );
+    }
     let prepared = Prepared {
         layout: p.prepare.layout,
         bodies: scene.bodies,
