@@ -139,6 +139,16 @@ fn a_deposit_killed_several_times_ends_as_an_uninterrupted_one() {
 }
 
 #[test]
+fn a_deposit_with_its_separation_killed_several_times_ends_as_an_uninterrupted_one() {
+    // the separation's state (done or not, and its figures) lives in the snapshot
+    let yaml = DEPOSIT.replace(
+        "  diameter: [1.4e-3, 2.4e-3]\n",
+        "  diameter: [1.4e-3, 2.4e-3]\n  separate_at: 1.0e-6\nsolver:\n  tolerance: 2.0e-3\n",
+    );
+    killed_runs_end_as_uninterrupted(&yaml, "kill-dep-sep", &random_kills(4, 100, 800), &[]);
+}
+
+#[test]
 fn a_packing_compaction_killed_at_random_points_ends_as_an_uninterrupted_one() {
     killed_runs_end_as_uninterrupted(
         PACKING,

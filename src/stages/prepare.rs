@@ -353,8 +353,8 @@ fn finish(p: &Pipeline, ctx: &StageCtx, st: Running) -> Result<(Prepared, String
     if let Some(s) = &f.separation {
         let _ = write!(
             summary,
-            ", separated at step {} (deepest overlap {:.1e} <r>, moved up to {:.1e} <r>)",
-            s.step, s.deepest_before, s.moved
+            ", separated at step {} (deepest overlap {:.1e} -> {:.1e} <r>, moved up to {:.1e} <r>)",
+            s.step, s.deepest_before, s.deepest_after, s.moved
         );
     }
     let prepared = Prepared {
