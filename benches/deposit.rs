@@ -153,7 +153,7 @@ fn run_softgrain(
     budget: f64,
     nlgs: NlgsParams,
     sleep: bool,
-    separate_at: Option<f64>,
+    (separate_at, tolerance_after): (Option<f64>, Option<f64>),
 ) -> Outcome {
     let mut bodies = Bodies::default();
     for (k, (x, d)) in s.pos.iter().zip(&s.diameters).enumerate() {
@@ -198,7 +198,8 @@ fn run_softgrain(
     let trace = std::env::var_os("DEPOSIT_TRACE").is_some();
     let t0 = Instant::now();
     // with `separate_at`: one position projection (tolerance 1e-6 <r>) the first time the
-    // rest ratio falls below it, then on until the rest test holds
+    // rest ratio falls below it, then on until the rest test holds, at `tolerance_after` if
+    // given (`prepare.separation`)
     let mut separated_at = separate_at.is_none().then_some(0);
     loop {
         let ratio = rest_ratio(scene.bodies.translational_energy(), mass, s.d_mean);
@@ -218,6 +219,9 @@ fn run_softgrain(
                 eprintln!("  separation at step {}: {sep:?}", scene.steps);
             }
             separated_at = Some(scene.steps);
+            if let Some(t) = tolerance_after {
+                scene.params.nlgs.tol = t;
+            }
         }
         if scene.time > s.settle_after
             && separated_at.is_some_and(|k| scene.steps > k)
@@ -454,10 +458,10 @@ fn child(
     seed: u64,
     budget: f64,
     nlgs: NlgsParams,
-    (sleep, separate_at): (bool, Option<f64>),
+    (sleep, separation): (bool, (Option<f64>, Option<f64>)),
 ) {
     let mut out = match engine {
-        "softgrain" => run_softgrain(s, seed, budget, nlgs, sleep, separate_at),
+        "softgrain" => run_softgrain(s, seed, budget, nlgs, sleep, separation),
         "rapier" => run_rapier(s, budget, false),
         "rapier-froude" => run_rapier(s, budget, true),
         _ => panic!("unknown engine {engine}"),
@@ -514,6 +518,9 @@ fn main() {
     // one position projection (`cd::separate`) once the rest ratio falls below this
     let separate_at: Option<f64> =
         arg(&args, "--separate-at").map(|s| s.parse().expect("--separate-at"));
+    // and the NLGS tolerance from then on
+    let tolerance_after: Option<f64> =
+        arg(&args, "--tolerance-after").map(|s| s.parse().expect("--tolerance-after"));
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
@@ -523,7 +530,7 @@ fn main() {
             seed,
             budget,
             nlgs,
-            (sleep, separate_at),
+            (sleep, (separate_at, tolerance_after)),
         );
         return;
     }

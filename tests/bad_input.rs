@@ -176,14 +176,14 @@ const CASES: &[(&str, &str, &str, &str)] = &[
     (
         PACKING,
         "grains: 30",
-        "grains: 30\n  separate_at: 0.0",
-        "prepare.separate_at = 0.0: must be a finite number > 0",
+        "grains: 30\n  separation: {at: 1.0e-6, tolerance: 0.0}",
+        "prepare.separation.tolerance = 0.0: must be a finite number > 0",
     ),
     (
         GRAIN,
         "  radius: 5.0e-3\n",
-        "  radius: 5.0e-3\n  separate_at: 1.0e-6\n",
-        "g.yaml:6:3: prepare.separate_at = 1e-6: applies to the packing layout only",
+        "  radius: 5.0e-3\n  separation:\n    at: 1.0e-6\n",
+        "g.yaml:7:5: prepare.separation.at = 1e-6: applies to the packing layout only",
     ),
     (
         PACKING,

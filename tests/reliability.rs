@@ -143,7 +143,7 @@ fn a_deposit_with_its_separation_killed_several_times_ends_as_an_uninterrupted_o
     // the separation's state (done or not, and its figures) lives in the snapshot
     let yaml = DEPOSIT.replace(
         "  diameter: [1.4e-3, 2.4e-3]\n",
-        "  diameter: [1.4e-3, 2.4e-3]\n  separate_at: 1.0e-6\nsolver:\n  tolerance: 2.0e-3\n",
+        "  diameter: [1.4e-3, 2.4e-3]\n  separation: {at: 1.0e-6, tolerance: 7.0e-4}\nsolver:\n  tolerance: 4.0e-3\n",
     );
     killed_runs_end_as_uninterrupted(&yaml, "kill-dep-sep", &random_kills(4, 100, 800), &[]);
 }

@@ -18,7 +18,7 @@ pub const REST_TOLERANCE: f64 = 1e-9;
 /// The rest criterion must hold this many consecutive steps: with zero restitution a
 /// packing can stop dead for an instant between two collapses.
 pub const REST_STEPS: u64 = 50;
-/// `prepare.separate_at`: the separation stops once no overlap is deeper than this
+/// `prepare.separation`: the separation stops once no overlap is deeper than this
 /// fraction of the mean radius, within this many Gauss-Seidel sweeps per linearisation.
 pub const SEPARATION_TOLERANCE: f64 = 1e-6;
 pub const SEPARATION_MAX_SWEEPS: u32 = 10_000;

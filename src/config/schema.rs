@@ -88,12 +88,11 @@ pub struct Prepare {
     /// Packing: the deposit fails if not at rest by this time (s).
     #[serde(default = "max_time")]
     pub max_time: f64,
-    /// Packing: move overlapping disks apart once (`cd::separate`), the first time the rest
-    /// measure falls below this (or at rest, if it never does), then settle to rest again;
-    /// absent: never. It lets a looser solver tolerance keep overlaps small (README, "One
-    /// separation at rest"; 1e-6 there).
+    /// Packing: move overlapping disks apart once (`cd::separate`) as the pile comes to
+    /// rest, then settle to rest again; absent: never. It lets a looser solver tolerance
+    /// keep overlaps small (README, "One separation at rest").
     #[serde(default)]
-    pub separate_at: Option<f64>,
+    pub separation: Option<SeparationParams>,
     /// Put groups of touching disks to sleep once each of their disks has moved slower
     /// than `speed` (m/s, |v| + r|ω|) for `time` (s), as rapier and Box2D do
     /// (`cd/sleep.rs`); absent: no disk sleeps.
@@ -111,6 +110,19 @@ pub struct Prepare {
     /// Explicit: simulated time (s).
     #[serde(default)]
     pub duration: Option<f64>,
+}
+
+/// `prepare.separation`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeparationParams {
+    /// Separate the first time the rest measure (translational kinetic energy over
+    /// Σ m g <d>) falls below this, or at rest if it never does.
+    pub at: f64,
+    /// NLGS tolerance from the separation on (the pile's last settling, whose errors are
+    /// the overlaps left at rest); absent: `solver.tolerance` throughout.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
 }
 
 fn layout() -> Layout {

@@ -147,12 +147,15 @@ fn prepare(p: &Prepare) -> Result<(), Failure> {
     positive("prepare.density", p.density)?;
     positive("prepare.rest_tolerance", p.rest_tolerance)?;
     positive("prepare.max_time", p.max_time)?;
-    if let Some(at) = p.separate_at {
-        positive("prepare.separate_at", at)?;
+    if let Some(s) = &p.separation {
+        positive("prepare.separation.at", s.at)?;
+        if let Some(t) = s.tolerance {
+            positive("prepare.separation.tolerance", t)?;
+        }
         if p.layout != Layout::Packing {
             fail(
-                "prepare.separate_at",
-                at,
+                "prepare.separation.at",
+                s.at,
                 "applies to the packing layout only",
             )?;
         }

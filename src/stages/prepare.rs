@@ -48,7 +48,7 @@ pub struct Figures {
     pub kinetic_energy: f64,
     /// Disks asleep at the end (`prepare.sleep`).
     pub sleeping: usize,
-    /// The one separation of `prepare.separate_at`, if it ran.
+    /// The one separation of `prepare.separation`, if it ran.
     pub separation: Option<Separated>,
 }
 
@@ -79,9 +79,9 @@ struct Running {
 }
 
 impl Running {
-    /// A separation `prepare.separate_at` asks for and that has not run yet.
+    /// A separation `prepare.separation` asks for and that has not run yet.
     fn separation_due(&self, prep: &Prepare) -> bool {
-        prep.separate_at.is_some() && self.figures.separation.is_none()
+        prep.separation.is_some() && self.figures.separation.is_none()
     }
 }
 
@@ -137,10 +137,10 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
             st.quiet_steps = if quiet { st.quiet_steps + 1 } else { 0 };
             if settling
                 && st.separation_due(prep)
-                && (prep.separate_at.is_some_and(|at| ratio < at)
+                && (prep.separation.is_some_and(|s| ratio < s.at)
                     || st.quiet_steps >= defaults::REST_STEPS)
             {
-                separate(&mut st);
+                separate(&mut st, prep.separation.and_then(|s| s.tolerance));
             }
             st.floor_window.push(st.scene.wall_force[0].y);
             if st.floor_window.len() > FLOOR_WINDOW {
@@ -172,8 +172,8 @@ pub fn run(p: &Pipeline, ctx: &StageCtx) -> Result<(Prepared, String), String> {
 }
 
 /// Moves the packing's overlapping disks apart once; the rest test then starts over, since
-/// disks lifted off a support settle again.
-fn separate(st: &mut Running) {
+/// disks lifted off a support settle again, at the NLGS `tolerance` if one is given.
+fn separate(st: &mut Running, tolerance: Option<f64>) {
     let r = st.scene.bodies.mean_radius();
     let s = crate::cd::separate(
         &mut st.scene.bodies,
@@ -190,6 +190,9 @@ fn separate(st: &mut Running) {
         sweeps: s.sweeps,
     });
     st.quiet_steps = 0;
+    if let Some(t) = tolerance {
+        st.scene.params.nlgs.tol = t;
+    }
 }
 
 /// Ratio of the translational kinetic energy to Σ m g <d>: the dimensionless rest measure.
