@@ -197,7 +197,7 @@ fn run_softgrain(
     let mut floor = Vec::new();
     let trace = std::env::var_os("DEPOSIT_TRACE").is_some();
     let t0 = Instant::now();
-    // with `separate_at`: one position projection (tolerance 1e-6 <r>) the first time the
+    // with `separate_at`: one position projection (as the prepare stage's) the first time the
     // rest ratio falls below it, then on until the rest test holds, at `tolerance_after` if
     // given (`prepare.separation`)
     let mut separated_at = separate_at.is_none().then_some(0);
@@ -212,8 +212,8 @@ fn run_softgrain(
                 &mut scene.bodies,
                 &scene.walls,
                 &scene.contacts,
-                1e-6 * r,
-                10_000,
+                defaults::SEPARATION_TOLERANCE * r,
+                defaults::SEPARATION_MAX_SWEEPS,
             );
             if trace {
                 eprintln!("  separation at step {}: {sep:?}", scene.steps);

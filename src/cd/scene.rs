@@ -501,20 +501,10 @@ impl<L: InteractionLaw> Scene<L> {
 
     /// Current gap of each stored contact (after the step's position update).
     pub fn current_gaps(&self) -> Vec<f64> {
-        let b = &self.bodies;
         self.contacts
             .iter()
             .map(|c| {
-                let i = c.i as usize;
-                match c.j {
-                    Partner::Body(j) => {
-                        let j = j as usize;
-                        (b.pos[i] - b.pos[j]).norm() - b.radius[i] - b.radius[j]
-                    }
-                    Partner::Wall(w) => self.walls[w as usize]
-                        .gap(V2::zeros(), b.pos[i], b.radius[i])
-                        .map_or(f64::INFINITY, |(g, _)| g),
-                }
+                super::separate::gap(&self.bodies, &self.walls, c).map_or(f64::INFINITY, |(g, _)| g)
             })
             .collect()
     }

@@ -27,7 +27,7 @@ pub struct Separation {
 
 /// A contact's current gap and normal (from its partner into disk `i`); `None` against a
 /// wall the centre has passed.
-fn gap(b: &Bodies, walls: &[Wall], c: &Contact) -> Option<(f64, V2)> {
+pub(super) fn gap(b: &Bodies, walls: &[Wall], c: &Contact) -> Option<(f64, V2)> {
     let i = c.i as usize;
     match c.j {
         Partner::Body(j) => {
@@ -74,14 +74,10 @@ fn unlisted_overlaps(b: &Bodies, walls: &[Wall], listed: &[(u32, Partner)]) -> V
                 out.push(pair(i as u32, pj));
             }
         });
-        for (w, wall) in walls.iter().enumerate() {
-            let pw = Partner::Wall(w as u32);
-            if wall
-                .gap(V2::zeros(), b.pos[i], b.radius[i])
-                .is_some_and(|(g, _)| g < 0.0)
-                && !known(i, pw)
-            {
-                out.push(pair(i as u32, pw));
+        for w in 0..walls.len() as u32 {
+            let c = pair(i as u32, Partner::Wall(w));
+            if gap(b, walls, &c).is_some_and(|(g, _)| g < 0.0) && !known(i, c.j) {
+                out.push(c);
             }
         }
     }
