@@ -548,9 +548,12 @@ fn main() {
     let exe = std::env::current_exe().expect("own path");
     println!(
         "deposit benchmark: seed {seed}, {runs} run(s) each, budget {budget} s, {} rayon threads, \
-         softgrain NLGS relaxation {}, Anderson depth {}, check every {} sweeps, islands {}, \
-         sleeping {}",
+         softgrain NLGS tolerance {} (after the separation: {}), separation at rest ratio {}, \
+         relaxation {}, Anderson depth {}, check every {} sweeps, islands {}, sleeping {}",
         rayon::current_num_threads(),
+        nlgs.tol,
+        tolerance_after.map_or("unchanged".into(), |t| t.to_string()),
+        separate_at.map_or("none".into(), |r| r.to_string()),
         nlgs.relax,
         nlgs.anderson,
         nlgs.check_every,
@@ -583,6 +586,11 @@ fn main() {
                         separate_at
                             .iter()
                             .flat_map(|r| ["--separate-at".into(), r.to_string()]),
+                    )
+                    .args(
+                        tolerance_after
+                            .iter()
+                            .flat_map(|t| ["--tolerance-after".into(), t.to_string()]),
                     )
                     .stderr(std::process::Stdio::inherit())
                     .output()
