@@ -1,5 +1,5 @@
 #!/bin/bash
-# Quasi-static check (README "Quasi-static check"): one pipeline at several wall speeds over
+# Quasi-static check (bench/README-packings.md, "Quasi-static check (30 grains)" and "(16 grains)"): one pipeline at several wall speeds over
 # seeds 1-3, each run in OUT_DIR/s<seed>_v<speed>. Then
 #   python3 bench/quasi_static.py OUT_DIR [FROM-TO ...] > bench/quasi_static_<method>.csv
 # gives window means of sigma, inertial and kinetic_ratio.

@@ -253,7 +253,7 @@ pub enum ContactKind {
     /// spread over the layer's points (equal shares, each by its `S_ip`) and its
     /// displacement is read back through the same weights, so that force and gap are
     /// work-conjugate. A node force moves the node, not the points that set the gap
-    /// (README, "Why held nodes do not hold the points").
+    /// (`bench/README-packings.md`, "Why held nodes do not hold the points").
     Surface,
 }
 

@@ -68,9 +68,9 @@
 //!     position law. The overlap halved, but σ rose 70 %.
 //!   - Measured: at loaded contacts where both grains have mass, the points that set the
 //!     gap approach 2-3e-3 h_g per step more than the held nodes. A node force moves the
-//!     node, not those points (README, "Why held nodes do not hold the points"). Tried:
-//!     the position law with anticipating collisions (worse), and that law corrected by the
-//!     points' approach (the coupling diverged).
+//!     node, not those points (`bench/README-packings.md`, "Why held nodes do not hold
+//!     the points"). Tried: the position law with anticipating collisions (worse), and
+//!     that law corrected by the points' approach (the coupling diverged).
 //!   - Option: `ContactKind::Surface` adds at each contact node a contact on the two
 //!     grains' surface layers, whose force moves the points that set the gap. The area
 //!     under two grains then falls with the cell size (0.60, 0.36, 0.24 % at Δr/R = 0.12,
