@@ -107,9 +107,10 @@ pub fn separate(
     for round in 0..4 {
         rows.clear();
         let mut deepest = 0.0f64;
-        extra.extend(unlisted_overlaps(b, walls, &listed));
-        listed.extend(extra.iter().map(Contact::key));
+        let found = unlisted_overlaps(b, walls, &listed);
+        listed.extend(found.iter().map(Contact::key));
         listed.sort_unstable();
+        extra.extend(found);
         for c in contacts.iter().chain(&extra) {
             let Some((g, n)) = gap(b, walls, c) else {
                 continue;
