@@ -14,12 +14,16 @@
 //! the solution's accuracy, is the same as without acceleration.
 
 /// The history and the block's starting impulses. Vectors are indexed by slot: the row
-/// given slot `s` at `reset` owns entries 2s, 2s + 1 (p_n, p_t) and keeps its slot through
-/// the shuffles between blocks.
+/// given slot `s` at `reset` owns entry `offset[s]` (p_n) and, if it is frictional,
+/// `offset[s] + 1` (p_t), and keeps its slot through the shuffles between blocks. A
+/// frictionless row's p_t is 0 throughout, so it is left out: every sum over the vectors
+/// then skips only exact zeros, and a frictionless solve's vectors are half as long.
 #[derive(Clone, Debug, Default)]
 pub struct Anderson {
     depth: usize,
-    /// Residual weights (W_nn, W_tt) by slot.
+    /// First entry of each slot, and the length last (a slot has one or two entries).
+    offset: Vec<u32>,
+    /// Residual weights W_nn (and W_tt) by entry.
     weight: Vec<f64>,
     /// Impulses at the start of the current block (x_k).
     start: Vec<f64>,
@@ -47,14 +51,20 @@ const CHUNK: usize = 256;
 impl Anderson {
     /// Starts a new solve with an empty history, keeping the buffers' memory (the scene
     /// keeps one `Anderson` from step to step). `rows`: the diagonal terms (W_nn, W_tt) of
-    /// the contacts in the solve, by slot.
-    pub fn reset(&mut self, depth: usize, rows: impl Iterator<Item = (f64, f64)>) {
+    /// the contacts in the solve and whether each is frictional, by slot.
+    pub fn reset(&mut self, depth: usize, rows: impl Iterator<Item = (f64, f64, bool)>) {
         self.depth = depth;
         self.weight.clear();
-        for (w_nn, w_tt) in rows {
-            self.weight.extend([w_nn, w_tt]);
+        self.offset.clear();
+        for (w_nn, w_tt, frictional) in rows {
+            self.offset.push(self.weight.len() as u32);
+            self.weight.push(w_nn);
+            if frictional {
+                self.weight.push(w_tt);
+            }
         }
         let n = self.weight.len();
+        self.offset.push(n as u32);
         for v in [
             &mut self.start,
             &mut self.g,
@@ -77,17 +87,19 @@ impl Anderson {
         self.gram.clear();
     }
 
-    fn gather(out: &mut [f64], impulses: impl Iterator<Item = (usize, f64, f64)>) {
+    fn gather(out: &mut [f64], offset: &[u32], impulses: impl Iterator<Item = (usize, f64, f64)>) {
         for (slot, p_n, p_t) in impulses {
-            let s = 2 * slot;
+            let (s, end) = (offset[slot] as usize, offset[slot + 1] as usize);
             out[s] = p_n;
-            out[s + 1] = p_t;
+            if end > s + 1 {
+                out[s + 1] = p_t;
+            }
         }
     }
 
     /// Records x_k, the impulses (slot, p_n, p_t) at the start of a block.
     pub fn begin(&mut self, impulses: impl Iterator<Item = (usize, f64, f64)>) {
-        Self::gather(&mut self.start, impulses);
+        Self::gather(&mut self.start, &self.offset, impulses);
     }
 
     /// Given g_k, the block's output, returns the accelerated iterate before projection as
@@ -96,7 +108,7 @@ impl Anderson {
         &mut self,
         output: impl Iterator<Item = (usize, f64, f64)>,
     ) -> Option<impl Fn(usize) -> (f64, f64) + '_> {
-        Self::gather(&mut self.g, output);
+        Self::gather(&mut self.g, &self.offset, output);
         let mut norm = 0.0;
         for (i, f) in self.f.iter_mut().enumerate() {
             *f = self.g[i] - self.start[i];
@@ -161,8 +173,11 @@ impl Anderson {
             }
         }
         Some(|slot: usize| {
-            let s = 2 * slot;
-            (self.next[s], self.next[s + 1])
+            let (s, end) = (self.offset[slot] as usize, self.offset[slot + 1] as usize);
+            (
+                self.next[s],
+                if end > s + 1 { self.next[s + 1] } else { 0.0 },
+            )
         })
     }
 
@@ -237,7 +252,7 @@ mod tests {
             plain = g(&plain);
         }
         let mut aa = Anderson::default();
-        aa.reset(2, std::iter::once((1.0, 1.0)));
+        aa.reset(2, std::iter::once((1.0, 1.0, true)));
         let mut x = [0.0, 0.0];
         for _ in 0..20 {
             aa.begin(std::iter::once((0, x[0], x[1])));

@@ -449,7 +449,7 @@ fn solve_rows<L: InteractionLaw>(
     let mut anderson = (params.anderson > 0 && !rows.iter().any(|r| r.rolling)).then(|| {
         anderson.reset(
             params.anderson as usize,
-            rows.iter().map(|r| (r.w_nn, r.w_tt)),
+            rows.iter().map(|r| (r.w_nn, r.w_tt, r.frictional)),
         );
         anderson
     });
