@@ -1,7 +1,7 @@
 //! Every shipped packing pipeline gets through prepare and discretise and starts its
 //! compaction. `compact.initial_phi` must lie below the deposit's packing fraction, and that
 //! moves with round-off between builds: `paper-coarse.yaml`'s deposit went from Φ = 0.644 to
-//! 0.631 (closed-area convention) between FORMAT_VERSION 11 and 13, and its Φ0 = 0.64
+//! 0.631 (closed-area convention) from session 17's build to session 25's, and its Φ0 = 0.64
 //! stopped the compaction at step 0 until session 25. (`quick.yaml` runs whole in `.ci/run`.)
 
 mod common;
