@@ -147,14 +147,23 @@ const PROGRESS: u64 = 200;
 
 // ---------------------------------------------------------------- softgrain
 
-fn run_softgrain(
-    s: &Setup,
-    seed: u64,
-    budget: f64,
-    nlgs: NlgsParams,
+/// softgrain's settings besides the NLGS's (`--sleep`, `--separate-at`, `--tolerance-after`).
+#[derive(Clone, Copy)]
+struct Extras {
+    /// Sleeping with rapier-froude's thresholds.
     sleep: bool,
-    (separate_at, tolerance_after): (Option<f64>, Option<f64>),
-) -> Outcome {
+    /// One position projection (`cd::separate`) once the rest ratio falls below this.
+    separate_at: Option<f64>,
+    /// The NLGS tolerance from the projection on.
+    tolerance_after: Option<f64>,
+}
+
+fn run_softgrain(s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams, extras: Extras) -> Outcome {
+    let Extras {
+        sleep,
+        separate_at,
+        tolerance_after,
+    } = extras;
     let mut bodies = Bodies::default();
     for (k, (x, d)) in s.pos.iter().zip(&s.diameters).enumerate() {
         bodies.push(*x, 0.5 * d, defaults::DENSITY, k as u32);
@@ -452,16 +461,9 @@ fn run_rapier(s: &Setup, budget: f64, froude: bool) -> Outcome {
 
 // ---------------------------------------------------------------- driver
 
-fn child(
-    engine: &str,
-    s: &Setup,
-    seed: u64,
-    budget: f64,
-    nlgs: NlgsParams,
-    (sleep, separation): (bool, (Option<f64>, Option<f64>)),
-) {
+fn child(engine: &str, s: &Setup, seed: u64, budget: f64, nlgs: NlgsParams, extras: Extras) {
     let mut out = match engine {
-        "softgrain" => run_softgrain(s, seed, budget, nlgs, sleep, separation),
+        "softgrain" => run_softgrain(s, seed, budget, nlgs, extras),
         "rapier" => run_rapier(s, budget, false),
         "rapier-froude" => run_rapier(s, budget, true),
         _ => panic!("unknown engine {engine}"),
@@ -514,13 +516,17 @@ fn main() {
             .map_or(defaults::NLGS_ANDERSON, |s| s.parse().expect("--anderson")),
         islands: args.iter().any(|a| a == "--islands"),
     };
-    let sleep = args.iter().any(|a| a == "--sleep");
-    // one position projection (`cd::separate`) once the rest ratio falls below this
-    let separate_at: Option<f64> =
-        arg(&args, "--separate-at").map(|s| s.parse().expect("--separate-at"));
-    // and the NLGS tolerance from then on
-    let tolerance_after: Option<f64> =
-        arg(&args, "--tolerance-after").map(|s| s.parse().expect("--tolerance-after"));
+    let extras = Extras {
+        sleep: args.iter().any(|a| a == "--sleep"),
+        separate_at: arg(&args, "--separate-at").map(|s| s.parse().expect("--separate-at")),
+        tolerance_after: arg(&args, "--tolerance-after")
+            .map(|s| s.parse().expect("--tolerance-after")),
+    };
+    let Extras {
+        sleep,
+        separate_at,
+        tolerance_after,
+    } = extras;
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
@@ -530,7 +536,7 @@ fn main() {
             seed,
             budget,
             nlgs,
-            (sleep, (separate_at, tolerance_after)),
+            extras,
         );
         return;
     }
