@@ -522,11 +522,6 @@ fn main() {
         tolerance_after: arg(&args, "--tolerance-after")
             .map(|s| s.parse().expect("--tolerance-after")),
     };
-    let Extras {
-        sleep,
-        separate_at,
-        tolerance_after,
-    } = extras;
     if let Some(k) = args.iter().position(|a| a == "--child") {
         let engine = &args[k + 1];
         let n: usize = args[k + 2].parse().expect("size");
@@ -558,13 +553,15 @@ fn main() {
          relaxation {}, Anderson depth {}, check every {} sweeps, islands {}, sleeping {}",
         rayon::current_num_threads(),
         nlgs.tol,
-        tolerance_after.map_or("unchanged".into(), |t| t.to_string()),
-        separate_at.map_or("none".into(), |r| r.to_string()),
+        extras
+            .tolerance_after
+            .map_or("unchanged".into(), |t| t.to_string()),
+        extras.separate_at.map_or("none".into(), |r| r.to_string()),
         nlgs.relax,
         nlgs.anderson,
         nlgs.check_every,
         nlgs.islands,
-        sleep,
+        extras.sleep,
     );
     let mut table = Vec::new();
     for &n in &sizes {
@@ -587,14 +584,16 @@ fn main() {
                     .args(["--anderson", &nlgs.anderson.to_string()])
                     .args(["--check-every", &nlgs.check_every.to_string()])
                     .args(nlgs.islands.then_some("--islands"))
-                    .args(sleep.then_some("--sleep"))
+                    .args(extras.sleep.then_some("--sleep"))
                     .args(
-                        separate_at
+                        extras
+                            .separate_at
                             .iter()
                             .flat_map(|r| ["--separate-at".into(), r.to_string()]),
                     )
                     .args(
-                        tolerance_after
+                        extras
+                            .tolerance_after
                             .iter()
                             .flat_map(|t| ["--tolerance-after".into(), t.to_string()]),
                     )

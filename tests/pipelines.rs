@@ -32,11 +32,13 @@ fn starts(tag: &str, file: &str, sets: &[&str], cases: usize) {
     }
     let o = softgrain(&args);
     assert!(o.status.success(), "{file}: {}", stderr(&o));
-    let stages: Vec<_> = walk(&dir)
-        .into_iter()
-        .filter(|p| {
-            p.ends_with("stage.json") && p.parent().unwrap().parent().unwrap().ends_with("compact")
-        })
+    // the cases' folders: OUT/<name>/compact/<case>/ (each pipeline is named as its file)
+    let name = file.trim_end_matches(".yaml");
+    let stages: Vec<_> = std::fs::read_dir(dir.join(name).join("compact"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path().join("stage.json"))
+        .filter(|p| p.exists())
         .collect();
     assert_eq!(stages.len(), cases, "{file}: {stages:?}");
     for s in stages {
@@ -48,19 +50,6 @@ fn starts(tag: &str, file: &str, sets: &[&str], cases: usize) {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            out.extend(walk(&p));
-        } else {
-            out.push(p);
-        }
-    }
-    out
 }
 
 #[test]
