@@ -105,7 +105,7 @@ fn run(pk: &mut Packing, eps: f64, tail: usize) -> (Vec<StepReport>, [f64; 6]) {
     (reports, mean)
 }
 
-/// Both contact kinds: at the node (the paper's), and at the node plus the surface layers.
+/// Both contact kinds: at the node (the paper's), and on the surface layers there.
 const KINDS: [ContactKind; 2] = [ContactKind::Node, ContactKind::Surface];
 
 #[test]

@@ -148,11 +148,11 @@ fn a_small_mpm_packing_keeps_its_grains_apart() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `discretise.mpm.contact: surface` adds, at each grain contact node, a contact on the two
-/// grains' surface layers, whose force moves the points that set the gap. Without friction
-/// the node contact lets these 12 grains overlap by 1.43 h_g (a fixed length: more cells
-/// on a finer grid, README); the surface contact at least halves that (measured 0.44, and
-/// 0.53 for a numerically equivalent variant: the runs are chaotic). The grains carry more
+/// `discretise.mpm.contact: surface` puts each grain contact on the two grains' surface
+/// layers at its node, so that its force moves the points that set the gap. Without
+/// friction the node contact lets these 12 grains overlap by 1.60 h_g (a fixed length: more
+/// cells on a finer grid, README); the surface contact at least halves that (measured 0.53;
+/// 0.41-0.44 with the node contact kept beside it: the runs are chaotic). The grains carry more
 /// stress then, so their area may shrink more, but only elastically: the grains' mean
 /// pressure is at most σ/Φ, so |ΔΣv_p/Σv_p| <= σ/(Φ (λ + μ)).
 #[test]

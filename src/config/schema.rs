@@ -329,9 +329,9 @@ pub struct Mpm {
     #[serde(default = "yes")]
     pub bbar: bool,
     /// Where contacts between grains act in packings: `node` (the paper's Eqs. 11-12,
-    /// default) or `surface` (the node plus the two grains' surface layers there: overlaps
-    /// that shrink with the grid instead of a fixed length, at about 3.5 times the cost;
-    /// README, "MPM packings").
+    /// default) or `surface` (on the two grains' surface layers at each contact node instead
+    /// of the node: overlaps that shrink with the grid instead of a fixed length, at about
+    /// twice the cost; README, "MPM packings").
     #[serde(default)]
     pub contact: ContactKind,
 }

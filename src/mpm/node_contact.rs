@@ -43,11 +43,12 @@
 //!   approaching `v^n` at every step, so the law above alone lets touching grains sink
 //!   into each other by `Δt |v^n·n|/2` a step. A perfectly inelastic normal impulse on
 //!   the start-of-step nodal velocities (momentum kept) removes the approach first.
-//! * **Surface contacts** (`ContactKind::Surface`, an option): a second contact at each
-//!   grain-pair node, on the two grains' surface layers (the strip's points within
-//!   `SURFACE_LAYER` of the gap-setting one). Its slot is the layer's mean stencil, so its
-//!   force moves the points that set the gap, which a node force does not. Same law,
-//!   normal and gap as the node's; its collisions act on the slots' pattern velocities.
+//! * **Surface contacts** (`ContactKind::Surface`, an option): at each grain-pair contact
+//!   node the contact acts on the two grains' surface layers instead of the node (the
+//!   strip's points within `SURFACE_LAYER` of the gap-setting one). Its slot is the
+//!   layer's mean stencil, so its force moves the points that set the gap, which a node
+//!   force does not. Same law, normal and gap as the node's; its collisions act on the
+//!   slots' pattern velocities.
 //! * **Slots.** A contact acts on a slot of each grain, a load pattern `P` of (node,
 //!   weight) entries; the condensed compliance is `P^T K^{-1} P`.
 //! * **NLGS.** Each contact's local problem uses its diagonal 2×2 block of `W` (projection
@@ -248,12 +249,14 @@ pub enum ContactKind {
     /// At the contact node (the paper's Eqs. 11–12).
     #[default]
     Node,
-    /// At the node, plus a second contact on the two grains' surface layers there: the
-    /// points within `SURFACE_LAYER` of the gap-setting point on each side. Its force is
-    /// spread over the layer's points (equal shares, each by its `S_ip`) and its
-    /// displacement is read back through the same weights, so that force and gap are
-    /// work-conjugate. A node force moves the node, not the points that set the gap
-    /// (`bench/README-packings.md`, "Why held nodes do not hold the points").
+    /// Instead of the node, on the two grains' surface layers there (the same candidate
+    /// nodes, normals, gaps and law): the points within `SURFACE_LAYER` of the
+    /// gap-setting point on each side. Its force is spread over the layer's points (equal
+    /// shares, each by its `S_ip`) and its displacement is read back through the same
+    /// weights, so that force and gap are work-conjugate. A node force moves the node, not
+    /// the points that set the gap (`bench/README-packings.md`, "Why held nodes do not
+    /// hold the points"). Until session 26 the node contact stayed beside it: the same
+    /// overlap and σ within 3% on 12 grains, at 1.5-1.7 times the time (README).
     Surface,
 }
 
@@ -287,8 +290,8 @@ fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
 /// and numbers each grain's contact slots. `friction` is the inter-grain coefficient;
 /// walls carry their own. `alert` drops candidates with a larger gap. `nm` and `dt` set
 /// each contact's velocity law; the grain pairs' shifts are left to `start_collisions`.
-/// With `ContactKind::Surface` each grain-pair node contact is followed by its surface
-/// contact.
+/// With `ContactKind::Surface` each grain-pair contact acts on its surface layers instead
+/// of its node (walls always at nodes).
 #[allow(clippy::too_many_arguments)]
 pub fn detect(
     grid: &Grid,
@@ -413,17 +416,19 @@ pub fn detect(
                 force_n: 0.0,
                 force_t: 0.0,
             };
-            out.push(node_contact);
-            if kind == ContactKind::Surface {
-                let depth = SURFACE_LAYER * grid.h;
-                layers.push([
-                    side_a.filter(|&p| face_a(p) <= lo + depth).collect(),
-                    side_b.filter(|&q| face_b(q) >= hi - depth).collect(),
-                ]);
-                out.push(NodeContact {
-                    surface: Some(layers.len() - 1),
-                    ..node_contact
-                });
+            match kind {
+                ContactKind::Node => out.push(node_contact),
+                ContactKind::Surface => {
+                    let depth = SURFACE_LAYER * grid.h;
+                    layers.push([
+                        side_a.filter(|&p| face_a(p) <= lo + depth).collect(),
+                        side_b.filter(|&q| face_b(q) >= hi - depth).collect(),
+                    ]);
+                    out.push(NodeContact {
+                        surface: Some(layers.len() - 1),
+                        ..node_contact
+                    });
+                }
             }
         }
     }
