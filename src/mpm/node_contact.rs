@@ -256,7 +256,7 @@ pub enum ContactKind {
     /// weights, so that force and gap are work-conjugate. A node force moves the node, not
     /// the points that set the gap (`bench/README-packings.md`, "Why held nodes do not
     /// hold the points"). Until session 26 the node contact stayed beside it: the same
-    /// overlap and σ within 3% on 12 grains, at 1.5-1.7 times the time (README).
+    /// overlap and σ within 3% on 12 grains, at 1.6-2.2 times the time (README).
     Surface,
 }
 
