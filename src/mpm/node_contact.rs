@@ -117,13 +117,10 @@ impl NodeContact {
         self.normal * self.force_n + self.tangent() * self.force_t
     }
 
-    /// Key for warm starts across steps: (node, grain, partner).
+    /// Key for warm starts across steps: (node, grain, partner). A run has either node or
+    /// surface contacts, so the node names the contact.
     pub fn key(&self) -> (usize, usize, Partner) {
-        (
-            2 * self.node + usize::from(self.surface.is_some()),
-            self.a,
-            self.partner,
-        )
+        (self.node, self.a, self.partner)
     }
 }
 
