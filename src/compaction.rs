@@ -109,6 +109,10 @@ pub struct Row {
     /// Worst interpenetration between grains (BPM: particle overlap over the smallest particle
     /// diameter; MPM: node gap over the cell size), ≥ 0.
     pub overlap: f64,
+    /// Share of the grains' area that lies under two grains. MPM: the points drawn as
+    /// squares of their area (`mpm::overlap::shared_area`); BPM: the lens areas of the
+    /// particle overlaps between grains over the grains' area.
+    pub overlap_area: f64,
     /// Inertial number I = ε̇ d sqrt(ρ/p) (`inertial_number`): the time to rearrange a grain
     /// under the confining pressure over the time the wall takes to strain the packing.
     /// Quasi-static flow has I ≲ 1e-3 (GDR MiDi 2004). NaN while the walls carry no load.
@@ -151,12 +155,12 @@ impl GrainScale {
 /// The time series as CSV, the contract's `time,strain,phi,z,sigma` first.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial\n",
+        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial,overlap_area\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.time,
             r.strain,
             r.phi,
@@ -171,7 +175,8 @@ pub fn csv(rows: &[Row]) -> String {
             r.iterations,
             r.kinetic_ratio,
             r.overlap,
-            r.inertial
+            r.inertial,
+            r.overlap_area
         );
     }
     s
@@ -236,6 +241,8 @@ pub struct PackingFigures {
     pub unconverged_steps: u64,
     /// Largest `Row::overlap` of the run.
     pub overlap_max: f64,
+    /// Largest `Row::overlap_area` of the run.
+    pub overlap_area_max: f64,
     /// Largest relative change of the total grain area over the run: the closed areas of
     /// the aggregates (BPM), Σ v_p of the points (MPM).
     pub area_change: f64,

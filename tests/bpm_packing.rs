@@ -122,6 +122,13 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
         "overlap {} d_min",
         c.figures.overlap_max
     );
+    // and so little area under two grains: a lens of depth 1e-3 d between particles of
+    // diameter d is (4/3) √(d/2) δ^(3/2) ≈ 3e-5 d², 4e-5 of a particle's area
+    assert!(
+        c.figures.overlap_area_max < 1e-4,
+        "area under two grains {}",
+        c.figures.overlap_area_max
+    );
     // the final picture: every particle, and a force network carried between grains
     assert_eq!(
         c.particles.iter().map(|p| p.grain).max(),

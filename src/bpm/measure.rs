@@ -156,6 +156,25 @@ impl GrainStress {
     }
 }
 
+/// Area shared by two disks of radii `r1`, `r2` whose centres are `d` apart: two circular
+/// segments cut by the common chord, at distances a1 = (d² + r1² - r2²)/(2d) and d - a1
+/// from the centres. Zero when they do not overlap, the smaller disk when one holds the
+/// other.
+pub fn lens_area(r1: f64, r2: f64, d: f64) -> f64 {
+    if d >= r1 + r2 {
+        return 0.0;
+    }
+    if d <= (r1 - r2).abs() {
+        return std::f64::consts::PI * r1.min(r2).powi(2);
+    }
+    // segment of a disk of radius r beyond a chord at distance a from its centre
+    let segment = |r: f64, a: f64| {
+        r * r * (a / r).clamp(-1.0, 1.0).acos() - a * (r * r - a * a).max(0.0).sqrt()
+    };
+    let a1 = (d * d + r1 * r1 - r2 * r2) / (2.0 * d);
+    segment(r1, a1) + segment(r2, d - a1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,6 +201,28 @@ mod tests {
         assert!(
             area > disks * 1.05 && area < disks / 0.9069 * 1.2,
             "{area} vs {disks}"
+        );
+    }
+
+    #[test]
+    fn lens_area_of_two_disks() {
+        use std::f64::consts::PI;
+        // equal disks at d = r: two segments of a chord at r/2, 2 (π/3 - √3/4) r²
+        let expected = 2.0 * (PI / 3.0 - 3f64.sqrt() / 4.0);
+        assert!((lens_area(1.0, 1.0, 1.0) - expected).abs() < 1e-14);
+        assert_eq!(lens_area(1.0, 2.0, 3.0), 0.0);
+        assert!((lens_area(1.0, 3.0, 1.5) - PI).abs() < 1e-14);
+        // coincident equal disks: the whole disk
+        assert!((lens_area(2.0, 2.0, 0.0) - 4.0 * PI).abs() < 1e-14);
+        // a shallow overlap δ: about (4/3) √(2 r*) δ^(3/2), r* = r1 r2 / (r1 + r2) (with
+        // relative error of order δ/r)
+        let (r1, r2, delta): (f64, f64, f64) = (1.0, 0.5, 1e-6);
+        let reduced = r1 * r2 / (r1 + r2);
+        let shallow = 4.0 / 3.0 * (2.0 * reduced).sqrt() * delta.powf(1.5);
+        let lens = lens_area(r1, r2, r1 + r2 - delta);
+        assert!(
+            (lens / shallow - 1.0).abs() < 1e-4,
+            "{lens} against {shallow}"
         );
     }
 }

@@ -62,6 +62,7 @@ pub mod grid;
 pub mod material;
 pub mod newmark;
 pub mod node_contact;
+pub mod overlap;
 pub mod packing;
 pub mod points;
 pub mod shape;

@@ -17,8 +17,9 @@ use serde::de::DeserializeOwned;
 /// earlier builds are recomputed rather than mixed with this build's. Version 12, likewise:
 /// Eq. (1)'s power of a whole γ multiplies instead of calling `powf` (`bpm/law.rs`).
 /// Version 13: the deposit's figures and snapshot record its one separation
-/// (`prepare.separate_at`).
-pub const FORMAT_VERSION: u32 = 13;
+/// (`prepare.separate_at`). Version 14: a packing's rows and figures record the area under
+/// two grains (`overlap_area`).
+pub const FORMAT_VERSION: u32 = 14;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

@@ -13,7 +13,8 @@
 //! * Z: grain pairs with at least one particle contact carrying a positive impulse in the
 //!   last step; Z* after removing rattlers (`compaction::coordination`, wall contacts count
 //!   toward holding a grain).
-//! * overlap: largest particle-particle overlap between different grains over d_min.
+//! * overlap: largest particle-particle overlap between different grains over d_min;
+//!   overlap_area: the lens areas of those overlaps over Σ grain areas.
 //! * kinetic_ratio: kinetic energy over the work the walls have done so far.
 //! * inertial: I = ε̇ d sqrt(ρ/p) with the top wall's ε̇, the walls' mean stress p and the
 //!   grains' size and density at ε = 0 (`compaction::GrainScale`).
@@ -242,11 +243,16 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
     // walls touched by each grain, one bit each
     let mut walls = vec![0u8; st.grains];
     let mut overlap: f64 = 0.0;
+    let mut lenses = 0.0;
     for (c, gap) in scene.contacts.iter().zip(scene.current_gaps()) {
         let gi = b.group[c.i as usize] as usize;
         match c.j {
             Partner::Body(j) if b.group[j as usize] as usize != gi => {
                 overlap = overlap.max(-gap / d_min);
+                if gap < 0.0 {
+                    let (ri, rj) = (b.radius[c.i as usize], b.radius[j as usize]);
+                    lenses += measure::lens_area(ri, rj, ri + rj + gap);
+                }
                 if c.p_n > 0.0 {
                     pairs.push((gi, b.group[j as usize] as usize));
                 }
@@ -281,11 +287,13 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
             f64::NAN
         },
         overlap: overlap.max(0.0),
+        overlap_area: lenses / area,
         inertial: f64::NAN,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
+    f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
     f.area_change = f.area_change.max((area / st.area0 - 1.0).abs());
     st.rows.push(row);
     st.impulse = [V2::zeros(); 4];

@@ -8,8 +8,8 @@
 //! means over the interval (bottom and top over `L`, sides over the current height), Z and
 //! Z* from the grain pairs with a loaded contact node at the recording step (rattlers with
 //! fewer than 2 contacts with friction, 3 without, wall contacts counted), the overlap the
-//! worst inter-grain node gap of the interval over `h_g`, and the kinetic ratio
-//! `E_k / (E_el + 1e-30 J/m)`.
+//! worst inter-grain node gap of the interval over `h_g`, the area under two grains at the
+//! recording step (`crate::mpm::overlap`), and the kinetic ratio `E_k / (E_el + 1e-30 J/m)`.
 
 use super::frames::FrameLog;
 use super::prepare::Prepared;
@@ -21,6 +21,7 @@ use crate::geom::V2;
 use crate::io::vtk::{Data, Frame};
 use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::node_contact::{ContactKind, NlgsParams, Partner};
+use crate::mpm::overlap;
 use crate::mpm::packing::{Packing, PackingParams, TOP};
 use crate::mpm::points::Points;
 use crate::mpm::shape::ShapeKind;
@@ -271,7 +272,7 @@ pub fn compact(
     f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.2} h_g, grain area within {:.2}%",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.2} h_g, area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%",
         st.pk.grains.len(),
         st.pk.grains.iter().map(Points::len).sum::<usize>(),
         steps,
@@ -282,6 +283,8 @@ pub fn compact(
         last.z,
         last.sigma,
         f.overlap_max,
+        100.0 * last.overlap_area,
+        100.0 * f.overlap_area_max,
         100.0 * f.area_change
     );
     let h = st.pk.grid.h;
@@ -360,11 +363,13 @@ fn record(st: &mut Running, mu: f64) {
         iterations: st.iterations as f64 / n,
         kinetic_ratio: ke / (pk.elastic_energy() + 1e-30),
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
+        overlap_area: overlap::shared_area(&pk.grains),
         inertial: f64::NAN,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
+    f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
     f.area_change = f.area_change.max((pk.grain_area() / st.area0 - 1.0).abs());
     if st.touched_top {
         f.kinetic_ratio_max = f.kinetic_ratio_max.max(row.kinetic_ratio);
