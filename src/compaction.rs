@@ -10,8 +10,10 @@ use std::fmt::Write as _;
 /// Version of a packing's compaction (`plan::version`), hashed into its nodes' names so that
 /// checkpoints made by an earlier version are not reused: 1 lays the deposit out with each
 /// grain's true extents and lifts it out of the floor (`unjammed_layout`); 2: the MPM
-/// `surface` contact acts on the surface layers instead of beside the node contact.
-pub const PACKING_VERSION: u32 = 2;
+/// `surface` contact acts on the surface layers instead of beside the node contact; 3: the
+/// surface contact's NLGS is Anderson-accelerated, with a stall window under friction
+/// (`NlgsParams::for_packing`).
+pub const PACKING_VERSION: u32 = 3;
 
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.

@@ -116,7 +116,7 @@ fn two_grains_pressed_together_carry_the_plate_force_without_interpenetrating() 
 }
 
 fn two_grains_pressed(kind: ContactKind) {
-    let mut pk = stacked(0.0, NlgsParams::default(), 0.1, kind);
+    let mut pk = stacked(0.0, NlgsParams::for_packing(kind, 0.0), 0.1, kind);
     let h = pk.grid.h;
     let (reports, [bottom, top, between, a, b, strain]) = run(&mut pk, 0.06, 10);
     // quasi-static: the force is transmitted unchanged through the grain-grain contact
@@ -155,31 +155,37 @@ fn two_grains_pressed(kind: ContactKind) {
     assert!((pk.total_mass() - m0).abs() < 1e-12 * m0);
 }
 
+/// For both contact kinds with their packings' NLGS (the surface contact's accelerated and
+/// stopped when it stalls, `NlgsParams::for_packing`), against a plain NLGS to 1e-10.
 #[test]
 fn the_coupling_iteration_converges_and_its_forces_do_not_depend_on_the_tolerance() {
-    let mut loose = stacked(0.5, NlgsParams::default(), 0.2, ContactKind::Node);
-    let (reports, f_loose) = run(&mut loose, 0.03, 5);
-    for r in &reports {
-        assert_eq!(r.nlgs_unconverged, 0);
-        assert_eq!(r.halvings, 0);
-        // quadratic Newton: a handful of coupling iterations per step
-        assert!(r.iterations <= 8, "{} coupling iterations", r.iterations);
-    }
-    let mut tight = stacked(
-        0.5,
-        NlgsParams {
+    for kind in KINDS {
+        let mut loose = stacked(0.5, NlgsParams::for_packing(kind, 0.5), 0.2, kind);
+        let (reports, f_loose) = run(&mut loose, 0.03, 5);
+        for r in &reports {
+            assert_eq!(r.nlgs_unconverged, 0);
+            assert_eq!(r.halvings, 0);
+            // quadratic Newton: a handful of coupling iterations per step
+            assert!(
+                r.iterations <= 8,
+                "{kind:?}: {} coupling iterations",
+                r.iterations
+            );
+        }
+        let tight = NlgsParams {
             tol: 1e-10,
             max_sweeps: 200_000,
-        },
-        0.2,
-        ContactKind::Node,
-    );
-    let (_, f_tight) = run(&mut tight, 0.03, 5);
-    for k in 0..5 {
-        assert!(
-            (f_loose[k] - f_tight[k]).abs() < 1e-3 * f_tight[k].abs(),
-            "{f_loose:?} vs {f_tight:?}"
-        );
+            anderson: 0,
+            stall_window: 0,
+        };
+        let mut tight = stacked(0.5, tight, 0.2, kind);
+        let (_, f_tight) = run(&mut tight, 0.03, 5);
+        for k in 0..5 {
+            assert!(
+                (f_loose[k] - f_tight[k]).abs() < 1e-3 * f_tight[k].abs(),
+                "{kind:?}: {f_loose:?} vs {f_tight:?}"
+            );
+        }
     }
 }
 

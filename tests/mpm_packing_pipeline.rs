@@ -151,9 +151,10 @@ fn a_small_mpm_packing_keeps_its_grains_apart() {
 /// `discretise.mpm.contact: surface` puts each grain contact on the two grains' surface
 /// layers at its node, so that its force moves the points that set the gap. Without
 /// friction the node contact lets these 12 grains overlap by 1.60 h_g (a fixed length: more
-/// cells on a finer grid, README); the surface contact at least halves that (measured 0.53;
-/// 0.41-0.44 with the node contact kept beside it: the runs are chaotic), and the area under
-/// two grains at the end falls to a fifth (0.58 against 3.18%). The grains carry more
+/// cells on a finer grid, README); the surface contact at least halves that (measured 0.47
+/// with its accelerated NLGS, 0.53 with the plain one, 0.41-0.44 with the node contact kept
+/// beside it: the runs are chaotic), and the area under two grains at the end falls to a
+/// sixth (0.51 against 3.18%; 0.58 with the plain NLGS). The grains carry more
 /// stress then, so their area may shrink more, but only elastically: the grains' mean
 /// pressure is at most σ/Φ, so |ΔΣv_p/Σv_p| <= σ/(Φ (λ + μ)).
 #[test]

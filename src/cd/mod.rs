@@ -13,7 +13,7 @@
 //! The engine takes plain structs and reports progress through callbacks; it never reads
 //! files or prints.
 
-mod anderson;
+pub(crate) mod anderson;
 mod bodies;
 mod contact;
 mod detect;

@@ -106,6 +106,7 @@ use super::material::Material;
 use super::node_contact::{self as nc, GrainView, NlgsParams, NodeContact, Partner, Slots};
 use super::points::Points;
 use super::solve::{Solver, SolverParams};
+use crate::cd::anderson::Anderson;
 use nalgebra::Vector2;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -199,6 +200,7 @@ struct Workspace {
     contacts: Vec<NodeContact>,
     slots: Vec<Slots>,
     backup: Vec<Points>,
+    anderson: Anderson,
 }
 
 impl Clone for Workspace {
@@ -570,7 +572,13 @@ impl Packing {
                 .collect::<Result<Vec<usize>, MpmError>>()?;
             report.factorisations += factorisations.iter().sum::<usize>();
             nc::load_slots(&ws.contacts, &mut ws.slots);
-            let (sweeps, ok) = nc::nlgs(&mut ws.contacts, &mut ws.slots, p.nlgs, floor);
+            let (sweeps, ok) = nc::nlgs(
+                &mut ws.contacts,
+                &mut ws.slots,
+                p.nlgs,
+                floor,
+                &mut ws.anderson,
+            );
             report.sweeps += sweeps;
             report.nlgs_unconverged += usize::from(!ok);
             // Update with the new forces.

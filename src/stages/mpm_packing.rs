@@ -125,7 +125,7 @@ fn params(
         gravity,
         wall_velocity,
         travel_per_step: time_step.map_or(TRAVEL_PER_STEP, |dt| dt * wall_velocity / g.cell),
-        nlgs: NlgsParams::default(),
+        nlgs: NlgsParams::for_packing(g.contact, friction),
     }
 }
 
