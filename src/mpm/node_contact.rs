@@ -654,8 +654,10 @@ impl NlgsParams {
     /// Anderson, restarting at every such trade, in 4%: a stall window of 500 sweeps stops
     /// them. On `mpm-packing-small.yaml` (16 grains to ε = 0.35, one run each) this takes
     /// the sweeps from 1.49 M to 0.13 M (μ = 0.5) and the time from 32.5 to 17.7 s; without
-    /// friction, Anderson alone, from 29.2 to 22.4 s with no solve left unconverged. The
-    /// results move within the runs' scatter (σ(0.35) 1.074 against 1.088 MPa at μ = 0.5).
+    /// friction, Anderson alone, from 29.2 to 22.4 s, and over three more seeds from 179 to
+    /// 138 s in all. The results move within the runs' scatter: σ(0.35) 1.074 against 1.088
+    /// MPa at μ = 0.5; without friction -6, 0 and -2% on the three seeds, whose σ spans
+    /// 0.70-0.85 MPa.
     pub fn for_packing(kind: ContactKind, friction: f64) -> Self {
         match kind {
             ContactKind::Node => NlgsParams::default(),
