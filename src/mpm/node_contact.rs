@@ -740,11 +740,10 @@ pub fn nlgs(
             change += df.x.abs() + df.y.abs();
             total += fn_new.abs() + ft_new.abs();
         }
-        let ratio = change / total.max(floor);
-        if ratio <= params.tol {
+        if change <= params.tol * total.max(floor) {
             return (sweep, true);
         }
-        best = best.min(ratio);
+        best = best.min(change / total.max(floor));
         if params.stall_window > 0 && sweep % params.stall_window == 0 {
             if best > 0.5 * window_start {
                 return (sweep, false);
