@@ -657,7 +657,8 @@ impl NlgsParams {
     /// friction, Anderson alone, from 29.2 to 22.4 s, and over three more seeds from 179 to
     /// 138 s in all. The results move within the runs' scatter: σ(0.35) 1.074 against 1.088
     /// MPa at μ = 0.5; without friction -6, 0 and -2% on the three seeds, whose σ spans
-    /// 0.70-0.85 MPa.
+    /// 0.70-0.85 MPa. On the 300 grains past ε = 0.37 (μ = 0) one ten-minute comparison
+    /// showed no clear gain per CPU second (`bench/README-packings.md`).
     pub fn for_packing(kind: ContactKind, friction: f64) -> Self {
         match kind {
             ContactKind::Node => NlgsParams::default(),
