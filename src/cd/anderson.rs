@@ -1,5 +1,6 @@
 //! Anderson acceleration of the NLGS (type II, Walker & Ni 2011), an option
-//! (`solver.anderson`, the history depth m; 0 = off).
+//! (`solver.anderson`, the history depth m; 0 = off). The MPM surface contact's NLGS uses it
+//! too, on the contact forces with one sweep per block (`mpm::node_contact::nlgs`).
 //!
 //! A block of Gauss-Seidel sweeps is a fixed-point map p ↦ G(p) on the impulses (p_n, p_t).
 //! With the residuals f = G(p) - p of the last m + 1 blocks, the next iterate is the
