@@ -118,6 +118,16 @@ impl NodeContact {
         self.normal * self.force_n + self.tangent() * self.force_t
     }
 
+    /// The nearest admissible forces: f_n ≥ 0 and |f_t| ≤ μ f_n (f_t = 0 without friction).
+    fn admissible(&self, f_n: f64, f_t: f64) -> (f64, f64) {
+        let f_n = f_n.max(0.0);
+        if self.friction > 0.0 {
+            (f_n, f_t.clamp(-self.friction * f_n, self.friction * f_n))
+        } else {
+            (f_n, 0.0)
+        }
+    }
+
     /// Key for warm starts across steps: (node, grain, partner). A run has either node or
     /// surface contacts, so the node names the contact.
     pub fn key(&self) -> (usize, usize, Partner) {
@@ -730,13 +740,8 @@ pub fn nlgs(
             let d = ua - ub + c.shift;
             let (wn, wt, wtn) = (n.dot(&(w * n)), t.dot(&(w * t)), t.dot(&(w * n)));
             let fn_new = (c.force_n - (d.dot(&n) + c.open) / wn).max(0.0);
-            let ft_new = if c.friction > 0.0 {
-                let slip = d.dot(&t) + wtn * (fn_new - c.force_n);
-                let bound = c.friction * fn_new;
-                (c.force_t - slip / wt).clamp(-bound, bound)
-            } else {
-                0.0
-            };
+            let slip = d.dot(&t) + wtn * (fn_new - c.force_n);
+            let (fn_new, ft_new) = c.admissible(fn_new, c.force_t - slip / wt);
             let df = set_force(c, slots, fn_new, ft_new);
             change += df.x.abs() + df.y.abs();
             total += fn_new.abs() + ft_new.abs();
@@ -755,12 +760,7 @@ pub fn nlgs(
             // the extrapolated forces, brought back onto each contact's admissible set
             for (k, c) in contacts.iter_mut().enumerate() {
                 let (f_n, f_t) = next(k);
-                let f_n = f_n.max(0.0);
-                let f_t = if c.friction > 0.0 {
-                    f_t.clamp(-c.friction * f_n, c.friction * f_n)
-                } else {
-                    0.0
-                };
+                let (f_n, f_t) = c.admissible(f_n, f_t);
                 set_force(c, slots, f_n, f_t);
             }
         }

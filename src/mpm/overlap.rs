@@ -70,8 +70,9 @@ fn shared_share(grains: &[(&[Vector2<f64>], &[f64])]) -> f64 {
             }
         }
     }
-    let covered = owner.iter().filter(|&&o| o != NONE).count();
-    let shared = owner.iter().filter(|&&o| o == SHARED).count();
+    let (covered, shared) = owner.iter().fold((0usize, 0usize), |(c, s), &o| {
+        (c + usize::from(o != NONE), s + usize::from(o == SHARED))
+    });
     shared as f64 / covered.max(1) as f64
 }
 
