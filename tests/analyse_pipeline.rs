@@ -60,15 +60,7 @@ fn analyse_writes_its_files_from_the_checkpoint_and_reruns_alone() {
     assert!(!an.join("packings.parquet").exists());
 
     // the numbers against the compact checkpoint's
-    let ckpt = common::checkpoints(&out)
-        .into_iter()
-        .find(|p| {
-            p.file_name()
-                .unwrap()
-                .to_string_lossy()
-                .starts_with("compact.")
-        })
-        .unwrap();
+    let ckpt = common::checkpoint_of(&out, "compact");
     let Some(Ok(StageState::MpmCompacted(c))) = store::load::<StageState>(&ckpt).unwrap() else {
         panic!("no MPM compact checkpoint")
     };

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{checkpoints, softgrain, stderr, stdout, temp_dir, write};
+use common::{checkpoint_of, checkpoints, softgrain, stderr, stdout, temp_dir, write};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -265,6 +265,46 @@ fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
         std::fs::read_dir(dir.join("g/snapshots")).unwrap().count(),
         0
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A snapshot this build cannot read (another build's format, or damaged) may still be hours
+/// of work for the build that wrote it: the run starts afresh and keeps it under another name.
+#[test]
+fn a_snapshot_this_build_cannot_read_is_kept_aside_not_overwritten() {
+    let dir = temp_dir("foreignsnap");
+    let file = write(&dir, "g.yaml", GRAIN);
+    let o = run_quietly(&file, &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let compact = checkpoint_of(&dir.join("g"), "compact");
+    let expected = std::fs::read(&compact).unwrap();
+    std::fs::remove_file(&compact).unwrap();
+    let name = compact
+        .file_name()
+        .unwrap()
+        .to_string_lossy()
+        .replace(".ckpt", ".snap");
+    let snapshots = dir.join("g/snapshots");
+    std::fs::create_dir_all(&snapshots).unwrap();
+    let foreign = b"a snapshot written by some other build".to_vec();
+    std::fs::write(snapshots.join(&name), &foreign).unwrap();
+    std::fs::write(snapshots.join(format!("{name}.json")), b"{}").unwrap();
+    let o = run_quietly(&file, &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let kept = snapshots.join(format!("{name}.unused"));
+    assert!(
+        stderr(&o).contains("not used") && stderr(&o).contains(&kept.display().to_string()),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(&kept).unwrap(), foreign);
+    assert_eq!(
+        std::fs::read(snapshots.join(format!("{name}.unused.json"))).unwrap(),
+        b"{}"
+    );
+    // the fresh start ends as the first run did, and its own snapshot is gone
+    assert!(std::fs::read(&compact).unwrap() == expected);
+    assert!(!snapshots.join(&name).exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -124,8 +124,9 @@ impl StageCtx {
         }
     }
 
-    /// The last snapshot of this node, if one exists and verifies; a bad one is ignored
-    /// (reported) and the stage starts from zero.
+    /// The last snapshot of this node, if one exists and verifies. A bad one is reported and
+    /// set aside (`set_aside`), and the stage starts from zero: a snapshot another build wrote
+    /// may hold hours of work that build can still resume, so it is never overwritten.
     pub fn load_snapshot<T: DeserializeOwned>(&self) -> Option<T> {
         match store::load(&self.snapshot) {
             Ok(Some(Ok(s))) => {
@@ -134,7 +135,14 @@ impl StageCtx {
                 Some(s)
             }
             Ok(Some(Err(e))) => {
-                eprintln!("  snapshot {} not used: {e}", self.snapshot.display());
+                let kept = match set_aside(&self.snapshot) {
+                    Ok(to) => format!("kept as {}", to.display()),
+                    Err(why) => format!("could not be set aside ({why}) and will be replaced"),
+                };
+                eprintln!(
+                    "  snapshot {} not used ({e}); {kept}; starting from zero",
+                    self.snapshot.display()
+                );
                 None
             }
             _ => None,
@@ -458,6 +466,26 @@ fn ago(d: std::time::Duration) -> String {
 /// The process id of the run writing to the pipeline's output folder now, if any.
 pub fn running(loaded: &Loaded, out: &Path) -> Option<String> {
     lock::holder(&run_dir(out, loaded).join(".lock"))
+}
+
+/// Renames an unusable snapshot and its note to the first free `<name>.unused[.N]`, so that
+/// the run starting afresh does not write over it; returns the new snapshot name.
+fn set_aside(snapshot: &Path) -> std::io::Result<PathBuf> {
+    let to = (1..)
+        .map(|n| match n {
+            1 => snapshot.with_extension("snap.unused"),
+            n => snapshot.with_extension(format!("snap.unused.{n}")),
+        })
+        .find(|p| !p.exists())
+        .expect("a free name");
+    std::fs::rename(snapshot, &to)?;
+    let note = SnapshotNote::path(snapshot);
+    if note.exists() {
+        let mut note_to = to.clone().into_os_string();
+        note_to.push(".json");
+        std::fs::rename(&note, note_to)?;
+    }
+    Ok(to)
 }
 
 /// Where a node's snapshot is kept while its stage runs.

@@ -44,6 +44,19 @@ pub fn checkpoints(run: &Path) -> Vec<PathBuf> {
     v
 }
 
+/// The run's checkpoint of `stage` (the first, if the stage has several cases).
+pub fn checkpoint_of(run: &Path, stage: &str) -> PathBuf {
+    checkpoints(run)
+        .into_iter()
+        .find(|p| {
+            p.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with(&format!("{stage}."))
+        })
+        .unwrap_or_else(|| panic!("no {stage} checkpoint in {}", run.display()))
+}
+
 /// Runs pipeline `file` quietly in the library into `dir`, up to the compact stage (analyse
 /// has its own tests), and returns the state of its last node, read back from its checkpoint.
 pub fn run_to_state(dir: &Path, file: &Path, sets: &[&str]) -> softgrain::stages::StageState {
