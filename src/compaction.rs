@@ -119,9 +119,47 @@ pub struct Row {
     /// under the confining pressure over the time the wall takes to strain the packing.
     /// Quasi-static flow has I ≲ 1e-3 (GDR MiDi 2004). NaN while the walls carry no load.
     pub inertial: f64,
+    /// MPM: the grains' vertical stress over the box, -Σ_p v_p σ_yy,p / (L h), mean over the
+    /// interval (compression positive); BPM: NaN. In quasi-static equilibrium it is
+    /// `sigma_top - sigma_lever` (`Packing::contact_moments`).
+    pub sigma_box: f64,
+    /// MPM: the grain pairs' contact moment Σ (x_a - x_b) ⊗ f, its yy part over L h, mean
+    /// over the interval: 0 for the node contact, whose pair forces act at one node; the
+    /// surface contact's act on two surface layers about a cell apart. BPM: NaN.
+    pub sigma_lever: f64,
+    /// The contact solver over the interval (`SolveTally`): the largest residual, over its
+    /// tolerance, of the solve whose forces a step kept (≤ 1 when all converged) ...
+    pub residual: f64,
+    /// ... and the steps whose kept forces stopped short of the tolerance.
+    pub unconverged: u64,
+}
+
+/// How close the contact solves that set each step's forces came to their tolerance, over a
+/// recording interval. BPM: a step's one NLGS; MPM: the last NLGS of the step's coupling
+/// iterations (earlier ones only steer Newton's iterate).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SolveTally {
+    pub residual: f64,
+    pub unconverged: u64,
+}
+
+impl SolveTally {
+    /// Adds a step whose kept solve ended at `residual` (its norm over the tolerance).
+    pub fn add(&mut self, residual: f64, converged: bool) {
+        self.residual = self.residual.max(residual);
+        self.unconverged += u64::from(!converged);
+    }
 }
 
 impl Row {
+    /// "ε = …: Φ = …, Z = …, σ = … Pa", for summary lines.
+    pub fn state(&self) -> String {
+        format!(
+            "ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa",
+            self.strain, self.phi, self.z, self.sigma
+        )
+    }
+
     /// Mean of the four wall stresses: the pressure of the packing as the walls see it.
     pub fn pressure(&self) -> f64 {
         0.25 * (self.sigma + self.sigma_top + self.sigma_left + self.sigma_right)
@@ -157,12 +195,12 @@ impl GrainScale {
 /// The time series as CSV, the contract's `time,strain,phi,z,sigma` first.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial,overlap_area\n",
+        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial,overlap_area,residual,unconverged,sigma_box,sigma_lever\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.time,
             r.strain,
             r.phi,
@@ -178,10 +216,27 @@ pub fn csv(rows: &[Row]) -> String {
             r.kinetic_ratio,
             r.overlap,
             r.inertial,
-            r.overlap_area
+            r.overlap_area,
+            r.residual,
+            r.unconverged,
+            r.sigma_box,
+            r.sigma_lever
         );
     }
     s
+}
+
+impl PackingFigures {
+    /// For a summary line: nothing when every step's contact solve converged.
+    pub fn unconverged_note(&self) -> String {
+        if self.unconverged_steps == 0 {
+            return String::new();
+        }
+        format!(
+            ", contact solve short of its tolerance in {} of {} steps (at worst {:.1} times it)",
+            self.unconverged_steps, self.steps, self.residual_max
+        )
+    }
 }
 
 /// Largest value of `f` once the packing carries load: over the rows whose floor stress is
@@ -240,7 +295,13 @@ pub struct PackingFigures {
     /// Mean and largest solver iterations per step.
     pub iterations_mean: f64,
     pub iterations_max: u64,
+    /// Steps whose kept contact solve stopped short of its tolerance (`SolveTally`).
     pub unconverged_steps: u64,
+    /// The largest `Row::residual` of the run.
+    pub residual_max: f64,
+    /// Contact solves stopped short of the tolerance: BPM, the unconverged steps; MPM, also
+    /// those of a step's earlier coupling iterations.
+    pub stopped_solves: u64,
     /// Largest `Row::overlap` of the run.
     pub overlap_max: f64,
     /// Largest `Row::overlap_area` of the run.

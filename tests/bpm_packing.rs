@@ -129,6 +129,11 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
         "area under two grains {}",
         c.figures.overlap_area_max
     );
+    // the rows account for every step's contact solve
+    let unconverged: u64 = rows.iter().map(|r| r.unconverged).sum();
+    assert_eq!(unconverged, c.figures.unconverged_steps);
+    let closest = rows.iter().map(|r| r.residual).fold(0.0, f64::max);
+    assert!(closest > 0.0 && closest == c.figures.residual_max);
     // the final picture: every particle, and a force network carried between grains
     assert_eq!(
         c.particles.iter().map(|p| p.grain).max(),

@@ -681,6 +681,16 @@ impl NlgsParams {
     }
 }
 
+/// How an NLGS solve ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NlgsOutcome {
+    pub sweeps: usize,
+    pub converged: bool,
+    /// The last sweep's change over `tol Σ|f|`: at most 1 when converged, and how far from
+    /// the tolerance a solve stopped by the stall window or the cap was.
+    pub residual: f64,
+}
+
 /// Adds the current contact forces into `slots[g].disp` (`disp = free + C f`); call once
 /// after the slots' free displacements and compliances are set.
 pub fn load_slots(contacts: &[NodeContact], slots: &mut [Slots]) {
@@ -697,16 +707,19 @@ pub fn load_slots(contacts: &[NodeContact], slots: &mut [Slots]) {
 /// forces, see `load_slots`). `floor` is a force below which `Σ|f|` counts as zero.
 /// With `params.anderson > 0` each sweep is a block of Anderson's fixed-point acceleration
 /// (`anderson` keeps its buffers between calls); the stopping test is still a plain sweep's.
-/// Returns the sweeps done and whether they converged.
 pub fn nlgs(
     contacts: &mut [NodeContact],
     slots: &mut [Slots],
     params: NlgsParams,
     floor: f64,
     anderson: &mut Anderson,
-) -> (usize, bool) {
+) -> NlgsOutcome {
     if contacts.is_empty() {
-        return (0, true);
+        return NlgsOutcome {
+            sweeps: 0,
+            converged: true,
+            residual: 0.0,
+        };
     }
     let accelerate = params.anderson > 0;
     if accelerate {
@@ -722,6 +735,7 @@ pub fn nlgs(
     }
     // the best convergence ratio so far, and at the start of the current window
     let (mut best, mut window_start) = (f64::INFINITY, f64::INFINITY);
+    let mut residual = f64::INFINITY;
     for sweep in 1..=params.max_sweeps {
         if accelerate {
             anderson.begin(forces(contacts));
@@ -746,13 +760,23 @@ pub fn nlgs(
             change += df.x.abs() + df.y.abs();
             total += fn_new.abs() + ft_new.abs();
         }
+        let ratio = change / total.max(floor);
+        residual = ratio / params.tol;
         if change <= params.tol * total.max(floor) {
-            return (sweep, true);
+            return NlgsOutcome {
+                sweeps: sweep,
+                converged: true,
+                residual,
+            };
         }
-        best = best.min(change / total.max(floor));
+        best = best.min(ratio);
         if params.stall_window > 0 && sweep % params.stall_window == 0 {
             if best > 0.5 * window_start {
-                return (sweep, false);
+                return NlgsOutcome {
+                    sweeps: sweep,
+                    converged: false,
+                    residual,
+                };
             }
             window_start = best;
         }
@@ -765,7 +789,11 @@ pub fn nlgs(
             }
         }
     }
-    (params.max_sweeps, false)
+    NlgsOutcome {
+        sweeps: params.max_sweeps,
+        converged: false,
+        residual,
+    }
 }
 
 /// The contact's Delassus block: the sum of its two slots' diagonal compliances.

@@ -107,7 +107,7 @@ use super::node_contact::{self as nc, GrainView, NlgsParams, NodeContact, Partne
 use super::points::Points;
 use super::solve::{Solver, SolverParams};
 use crate::cd::anderson::Anderson;
-use nalgebra::Vector2;
+use nalgebra::{Matrix2, Vector2};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -144,8 +144,15 @@ pub struct StepReport {
     /// Factorisations over all grains.
     pub factorisations: usize,
     pub sweeps: usize,
-    /// Sub-steps whose NLGS hit its sweep limit.
+    /// NLGS solves, over all coupling iterations and sub-steps, stopped by the stall window
+    /// or the sweep cap. One in an early coupling iteration is harmless (an inexact Newton
+    /// step); the step's own forces are those of its last solve (`residual`).
     pub nlgs_unconverged: usize,
+    /// The last NLGS solve's residual over its tolerance (`NlgsOutcome::residual`), the
+    /// largest over sub-steps: above 1 when the forces the step keeps stopped short of it.
+    pub residual: f64,
+    /// Sub-steps whose last NLGS solve stopped short of its tolerance.
+    pub kept_unconverged: usize,
     pub halvings: u64,
     /// Node contacts carrying a force at the end of the step.
     pub active: usize,
@@ -165,6 +172,18 @@ pub struct ContactRecord {
     /// Normal and tangential force on `grain` (N/m).
     pub force_n: f64,
     pub force_t: f64,
+    /// Where the force acts on `grain` and (opposite) on a partner grain: the centroids of
+    /// the two load patterns on the grid (`Slots::entries`), both the node for the node
+    /// contact, a grain's surface layer for the surface contact; for a wall, the first twice.
+    pub applied: [Vector2<f64>; 2],
+}
+
+impl ContactRecord {
+    /// The force on `grain` (N/m).
+    pub fn force(&self) -> Vector2<f64> {
+        let t = Vector2::new(-self.normal.y, self.normal.x);
+        self.normal * self.force_n + t * self.force_t
+    }
 }
 
 /// Per-grain solver workspace (never checkpointed).
@@ -379,6 +398,34 @@ impl Packing {
         self.grains.iter().map(Points::kinetic_energy).sum()
     }
 
+    /// `Σ_p v_p σ_p`, the in-plane stress integrated over every grain (N m/m), the box's
+    /// mean stress times its area.
+    pub fn stress_integral(&self) -> Matrix2<f64> {
+        self.grains
+            .iter()
+            .flat_map(|g| g.stress.iter().zip(&g.vol))
+            .map(|(s, v)| s.matrix() * *v)
+            .sum()
+    }
+
+    /// The moments `Σ x ⊗ f` of the last step's contact forces on the grains, where they act
+    /// on the grid: (walls, grain pairs). A pair adds `(x_a - x_b) ⊗ f`, zero for the node
+    /// contact (both act at the node) but not for the surface contact, whose two forces act
+    /// on surface layers about a cell apart. With linear-complete shape functions
+    /// `Σ_i x_i ⊗ ∇S_ip = I`, so the internal nodal forces' moment is `Σ_p v_p σ_p`: in
+    /// equilibrium, without gravity, `stress_integral` is the sum of the two.
+    pub fn contact_moments(&self) -> (Matrix2<f64>, Matrix2<f64>) {
+        let (mut walls, mut pairs) = (Matrix2::zeros(), Matrix2::zeros());
+        for c in &self.contacts {
+            let f = c.force();
+            match c.partner {
+                Partner::Wall(_) => walls += c.applied[0] * f.transpose(),
+                Partner::Grain(_) => pairs += (c.applied[0] - c.applied[1]) * f.transpose(),
+            }
+        }
+        (walls, pairs)
+    }
+
     /// Elastic energy `Σ v_p w(σ_p)`, with the linear-elastic complementary energy density
     /// including `σzz` (exact for the small-strain law, an estimate for neo-Hookean) (J/m).
     pub fn elastic_energy(&self) -> f64 {
@@ -518,6 +565,11 @@ impl Packing {
         let floor = p.material.young * grid.h * 1e-6;
         let mut converged = false;
         let mut worst = f64::INFINITY;
+        let mut last_solve = nc::NlgsOutcome {
+            sweeps: 0,
+            converged: true,
+            residual: 0.0,
+        };
         for it in 0..=p.solver.newton.max_iterations {
             ws.grains
                 .par_iter_mut()
@@ -554,6 +606,8 @@ impl Packing {
             }
             if worst <= tol && (it > 0 || ws.contacts.is_empty()) {
                 report.iterations += it;
+                report.residual = report.residual.max(last_solve.residual);
+                report.kept_unconverged += usize::from(!last_solve.converged);
                 converged = true;
                 break;
             }
@@ -572,15 +626,16 @@ impl Packing {
                 .collect::<Result<Vec<usize>, MpmError>>()?;
             report.factorisations += factorisations.iter().sum::<usize>();
             nc::load_slots(&ws.contacts, &mut ws.slots);
-            let (sweeps, ok) = nc::nlgs(
+            let solve = nc::nlgs(
                 &mut ws.contacts,
                 &mut ws.slots,
                 p.nlgs,
                 floor,
                 &mut ws.anderson,
             );
-            report.sweeps += sweeps;
-            report.nlgs_unconverged += usize::from(!ok);
+            report.sweeps += solve.sweeps;
+            report.nlgs_unconverged += usize::from(!solve.converged);
+            last_solve = solve;
             // Update with the new forces.
             {
                 let mut fc: Vec<Vec<f64>> = ws
@@ -650,6 +705,19 @@ impl Packing {
             }
             let w = &ws.grains[c.a];
             let id = w.solver.nodes()[c.node_a];
+            let at = |g: usize, slot: usize| -> Vector2<f64> {
+                let w = &ws.grains[g];
+                ws.slots[g]
+                    .entries(slot)
+                    .iter()
+                    .map(|&(i, weight)| w.window.node_position(w.solver.nodes()[i]) * weight)
+                    .sum()
+            };
+            let on_a = at(c.a, c.slot_a);
+            let on_b = match c.partner {
+                Partner::Grain(b) => at(b, c.slot_b),
+                Partner::Wall(_) => on_a,
+            };
             self.contacts.push(ContactRecord {
                 position: w.window.node_position(id),
                 normal: c.normal,
@@ -657,6 +725,7 @@ impl Packing {
                 partner: c.partner,
                 force_n: c.force_n,
                 force_t: c.force_t,
+                applied: [on_a, on_b],
             });
         }
         report.active = self.contacts.len();

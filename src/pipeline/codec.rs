@@ -18,8 +18,9 @@ use serde::de::DeserializeOwned;
 /// Eq. (1)'s power of a whole γ multiplies instead of calling `powf` (`bpm/law.rs`).
 /// Version 13: the deposit's figures and snapshot record its one separation
 /// (`prepare.separate_at`). Version 14: a packing's rows and figures record the area under
-/// two grains (`overlap_area`).
-pub const FORMAT_VERSION: u32 = 14;
+/// two grains (`overlap_area`). Version 15: they record how close the contact solves came
+/// to their tolerance (`residual`, `unconverged`, `SolveTally`).
+pub const FORMAT_VERSION: u32 = 15;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

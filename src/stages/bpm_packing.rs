@@ -24,7 +24,7 @@ use super::frames::FrameLog;
 use crate::bpm::{BpmLaw, measure};
 use crate::cd::{LawTable, Partner, Scene};
 use crate::compaction::{
-    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row,
+    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row, SolveTally,
 };
 use crate::config::{Compact, Method, Pipeline, defaults};
 use crate::geom::{V2, Wall};
@@ -56,6 +56,7 @@ struct Running {
     wall_work: f64,
     since_record: u64,
     iterations_since: u64,
+    solves_since: SolveTally,
     figures: PackingFigures,
 }
 
@@ -147,6 +148,7 @@ fn new_run(p: &Pipeline, c: &Compact, mu: f64, g: &BpmGrains) -> Result<Running,
         wall_work: 0.0,
         since_record: 0,
         iterations_since: 0,
+        solves_since: SolveTally::default(),
         figures: PackingFigures {
             time_step: dt,
             ..Default::default()
@@ -192,10 +194,12 @@ pub fn run(
         st.wall_work += st.scene.wall_force[TOP].dot(&st.scene.walls[TOP].velocity) * h;
         st.since_record += 1;
         st.iterations_since += r.nlgs.iterations as u64;
+        st.solves_since.add(r.nlgs.residual, r.nlgs.converged);
         let f = &mut st.figures;
         f.steps += 1;
         f.iterations_max = f.iterations_max.max(r.nlgs.iterations as u64);
         f.unconverged_steps += u64::from(!r.nlgs.converged);
+        f.stopped_solves += u64::from(!r.nlgs.converged);
         f.iterations_mean += r.nlgs.iterations as f64;
         if st.scene.steps % every == 0 {
             record(p, ctx, &mut st).map_err(io)?;
@@ -289,16 +293,22 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
         overlap: overlap.max(0.0),
         overlap_area: lenses / area,
         inertial: f64::NAN,
+        sigma_box: f64::NAN,
+        sigma_lever: f64::NAN,
+        residual: st.solves_since.residual,
+        unconverged: st.solves_since.unconverged,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
     f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
     f.area_change = f.area_change.max((area / st.area0 - 1.0).abs());
+    f.residual_max = f.residual_max.max(row.residual);
     st.rows.push(row);
     st.impulse = [V2::zeros(); 4];
     st.since_record = 0;
     st.iterations_since = 0;
+    st.solves_since = SolveTally::default();
     if p.output.vtk {
         st.frames
             .write_disks(&ctx.dir, st.scene.time, &st.scene.bodies)?;
@@ -343,8 +353,12 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(PackingCompacted, String), Str
         .collect();
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} steps, {:.0} NLGS sweeps/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.1e} d_min",
-        f.steps, f.iterations_mean, last.strain, last.phi, last.z, last.sigma, f.overlap_max
+        "{} steps, {:.0} NLGS sweeps/step, {}, worst overlap {:.1e} d_min{}",
+        f.steps,
+        f.iterations_mean,
+        last.state(),
+        f.overlap_max,
+        f.unconverged_note()
     );
     Ok((
         PackingCompacted {

@@ -14,7 +14,7 @@
 use super::frames::FrameLog;
 use super::prepare::Prepared;
 use crate::compaction::{
-    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row,
+    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row, SolveTally,
 };
 use crate::config::{Method, Model, Mpm, Pipeline, Shape};
 use crate::geom::V2;
@@ -151,11 +151,15 @@ struct Running {
     /// Σ v_p at the start (m²).
     area0: f64,
     /// Sums over the current recording interval: wall forces (bottom, top, left, right),
-    /// coupling iterations, steps; and the worst gap.
+    /// coupling iterations, steps; the worst gap, the contact solves, and the grains' stress
+    /// integral and the pairs' moment (yy; `Row::sigma_box`, `Row::sigma_lever`).
     forces: [f64; 4],
     iterations: u64,
     since: u64,
     min_gap: f64,
+    solves: SolveTally,
+    stress: f64,
+    lever: f64,
     touched_top: bool,
 }
 
@@ -211,6 +215,9 @@ pub fn compact(
                     iterations: 0,
                     since: 0,
                     min_gap: 0.0,
+                    solves: SolveTally::default(),
+                    stress: 0.0,
+                    lever: 0.0,
                     touched_top: false,
                 }
             }
@@ -229,12 +236,17 @@ pub fn compact(
             st.forces[k] += walls[w].normal_force();
         }
         st.iterations += report.iterations as u64;
+        st.stress += st.pk.stress_integral()[(1, 1)];
+        st.lever += st.pk.contact_moments().1[(1, 1)];
         st.since += 1;
         st.min_gap = st.min_gap.min(report.min_gap);
         let f = &mut st.figures;
         f.steps += 1;
         f.iterations_max = f.iterations_max.max(report.iterations as u64);
-        f.unconverged_steps += u64::from(report.nlgs_unconverged > 0);
+        let kept_converged = report.kept_unconverged == 0;
+        st.solves.add(report.residual, kept_converged);
+        f.unconverged_steps += u64::from(!kept_converged);
+        f.stopped_solves += report.nlgs_unconverged as u64;
         st.touched_top |= walls[TOP].contacts > 0;
         let strain = st.pk.strain();
         bar.set((strain * 1e4) as u64, format!("ε = {strain:.3}"));
@@ -247,6 +259,9 @@ pub fn compact(
         }
         if p.output.snapshot_every > 0 && steps % p.output.snapshot_every == 0 {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
+            // the rows so far, readable while the run goes on (as the BPM stage does)
+            ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
+                .map_err(io)?;
         }
         if ctx.interrupted() {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
@@ -272,20 +287,18 @@ pub fn compact(
     f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, ε = {:.3}: Φ = {:.3}, Z = {:.2}, σ = {:.3e} Pa, worst overlap {:.2} h_g, area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g, area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
         st.pk.grains.len(),
         st.pk.grains.iter().map(Points::len).sum::<usize>(),
         steps,
         st.pk.dt,
         f.iterations_mean,
-        last.strain,
-        last.phi,
-        last.z,
-        last.sigma,
+        last.state(),
         f.overlap_max,
         100.0 * last.overlap_area,
         100.0 * f.overlap_area_max,
-        100.0 * f.area_change
+        100.0 * f.area_change,
+        f.unconverged_note()
     );
     let h = st.pk.grid.h;
     let particles = st
@@ -365,17 +378,24 @@ fn record(st: &mut Running, mu: f64) {
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
         overlap_area: overlap::shared_area(&pk.grains),
         inertial: f64::NAN,
+        sigma_box: -st.stress / n / (width * height),
+        sigma_lever: st.lever / n / (width * height),
+        residual: st.solves.residual,
+        unconverged: st.solves.unconverged,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
     f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
     f.area_change = f.area_change.max((pk.grain_area() / st.area0 - 1.0).abs());
+    f.residual_max = f.residual_max.max(row.residual);
     if st.touched_top {
         f.kinetic_ratio_max = f.kinetic_ratio_max.max(row.kinetic_ratio);
     }
     st.rows.push(row);
     (st.forces, st.iterations, st.since, st.min_gap) = ([0.0; 4], 0, 0, 0.0);
+    st.solves = SolveTally::default();
+    (st.stress, st.lever) = (0.0, 0.0);
 }
 
 /// A frame of the points: `grain_id`, `volume`, `velocity`, `stress` (3x3 with σzz) and
