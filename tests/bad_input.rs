@@ -281,6 +281,12 @@ const CASES: &[(&str, &str, &str, &str)] = &[
         "final_strain: 0.3\n  friction: [0.0, -0.1]",
         "compact.friction = -0.1: must be a finite number >= 0",
     ),
+    (
+        PACKING,
+        "  diameter: [1.4e-3, 2.4e-3]\n",
+        "  diameter: [1.4e-3, 2.4e-3]\nanalyse:\n  final_window: 0.0\n",
+        "p.yaml:6:3: analyse.final_window = 0.0: must be in (0, 1)",
+    ),
     (GRAIN, "seed: 1", "seed: one", "g.yaml:2:"),
     (PACKING, "grains: 30", "grains: 2.5", "p.yaml:3:"),
     (

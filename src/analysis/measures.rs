@@ -163,6 +163,38 @@ pub fn mean_within(df: &DataFrame, x: &str, y: &str, range: [f64; 2]) -> PolarsR
     scalar(&out, y)
 }
 
+/// The mean of `y` over the last `window` of `x` (x rising). Each row's `y` is taken as the
+/// mean over its span from the row before (as a compaction row's stresses are over its
+/// recording interval), weighted by the part of that span inside the window. None without
+/// rows.
+pub fn end_mean(df: &DataFrame, x: &str, y: &str, window: f64) -> PolarsResult<Option<f64>> {
+    let Some(end) = last(df, x)? else {
+        return Ok(None);
+    };
+    let start = lit(end - window);
+    let prev = col(x).shift(lit(1)).fill_null(col(x));
+    // the overlap of (prev, x] with (end - window, end], never negative
+    let inside = col(x)
+        - when(prev.clone().gt(start.clone()))
+            .then(prev)
+            .otherwise(start);
+    let weight = when(inside.clone().gt(lit(0.0)))
+        .then(inside)
+        .otherwise(lit(0.0));
+    let out = df
+        .clone()
+        .lazy()
+        .select([
+            (weight.clone() * col(y)).sum().alias("wy"),
+            weight.sum().alias("w"),
+        ])
+        .collect()?;
+    Ok(match (scalar(&out, "wy")?, scalar(&out, "w")?) {
+        (Some(wy), Some(w)) if w > 0.0 => Some(wy / w),
+        _ => last(df, y)?,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,6 +227,27 @@ mod tests {
         assert_eq!(crossing(&df, "x", "y", 0.0).unwrap(), Some(0.0));
         assert_eq!(crossing(&df, "x", "y", 3.5).unwrap(), None);
         assert_eq!(last(&df, "y").unwrap(), Some(0.0));
+    }
+
+    #[test]
+    fn the_final_mean_weights_each_row_by_the_strain_it_spans_in_the_window() {
+        // rows every 0.015 of strain, then a last short one (0.002) carrying a jump
+        let df = df!(
+            "strain" => [0.40, 0.415, 0.430, 0.445, 0.447],
+            "sigma" => [800.0, 850.0, 900.0, 960.0, 1030.0]
+        )
+        .unwrap();
+        // window 0.01: (0.437, 0.445] of the 960 row and (0.445, 0.447] of the last
+        let m = end_mean(&df, "strain", "sigma", 0.01).unwrap().unwrap();
+        let exact = (0.008 * 960.0 + 0.002 * 1030.0) / 0.01;
+        assert!((m - exact).abs() < 1e-9, "{m} vs {exact}");
+        // a window reaching past the first row: every row's full span, the first has none
+        let all = end_mean(&df, "strain", "sigma", 1.0).unwrap().unwrap();
+        let exact = (0.015 * (850.0 + 900.0 + 960.0) + 0.002 * 1030.0) / 0.047;
+        assert!((all - exact).abs() < 1e-9, "{all} vs {exact}");
+        // one row: its own value
+        let one = df!("strain" => [0.1], "sigma" => [5.0]).unwrap();
+        assert_eq!(end_mean(&one, "strain", "sigma", 0.01).unwrap(), Some(5.0));
     }
 
     #[test]

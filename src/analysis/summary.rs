@@ -26,6 +26,9 @@ pub struct CaseSummary {
     pub z_star_final: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub strain_final: Option<f64>,
+    /// The floor's σ over the last `analyse.final_window` of strain (`measures::end_mean`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma_final: Option<f64>,
     /// Φ at ε = 0.45 (Fig. 8c), interpolated.
     #[serde(rename = "phi_at_strain_0.45", skip_serializing_if = "Option::is_none")]
     pub phi_at_strain_045: Option<f64>,
@@ -136,6 +139,7 @@ pub fn packing(df: &DataFrame, a: &Analyse) -> PolarsResult<(CaseSummary, DataFr
     s.z_final = measures::last(df, "z")?;
     s.z_star_final = measures::last(df, "z_star")?;
     s.strain_final = measures::last(df, "strain")?;
+    s.sigma_final = measures::end_mean(df, "strain", "sigma", a.final_window)?;
     s.phi_at_strain_045 = measures::crossing(df, "strain", "phi", 0.45)?;
     if let Some(j) = measures::jamming(df, a.jamming_fraction)? {
         s.jamming_strain = Some(j.strain);
@@ -279,6 +283,10 @@ mod tests {
         assert!((s.stress_scale.unwrap() / (1000.0 / 0.27) - 1.0).abs() < 1e-9);
         assert!(s.slope.is_none() && s.r2.unwrap() > 0.999_999);
         assert!((s.phi_initial.unwrap() - 0.65).abs() < 1e-12);
+        // σ over the last 0.01 of strain: the two rows from ε = 0.44, taken over their spans
+        let sig = |e: f64| 1000.0 * (1.0 - ((0.35 - 0.75 * e) / 0.2).ln() / 0.27);
+        let final_mean = (sig(0.445) + sig(0.45)) / 2.0;
+        assert!((s.sigma_final.unwrap() / final_mean - 1.0).abs() < 1e-12);
         // Φ up to 0.98 only: 0.8 + 0.75 k 0.005 <= 0.98 -> 49 points
         assert_eq!(s.fit_points, Some(49));
         assert!(out.column("strain_prime").is_ok());

@@ -66,6 +66,11 @@ pub const ANALYSE_JAMMING_FRACTION: f64 = 0.01;
 pub const ANALYSE_SMALL_STRAIN: f64 = 0.02;
 /// Single BPM grains: the plateau is read from ε = 0.1 on (as `compact` does).
 pub const ANALYSE_PLATEAU_STRAIN: [f64; 2] = [0.1, 1.0];
+/// Packings: the final σ is the mean over the last 1% of strain. A row's σ is a mean over
+/// its recording interval, and the last row's interval is whatever is left (a few steps):
+/// alone it is one fluctuation of a jammed packing (961 → 1029 kPa over the last six steps
+/// of the 300-grain surface-contact run).
+pub const ANALYSE_FINAL_WINDOW: f64 = 0.01;
 
 // ---- contact-dynamics solver ----
 /// θ of the Moreau-Jean scheme: 1 closes contacts exactly (METHODS.md §1.1).

@@ -461,6 +461,8 @@ pub struct Analyse {
     pub small_strain: f64,
     /// Single BPM grains: the plateau σ<a0>/F0 is the mean over this strain range.
     pub plateau_strain: [f64; 2],
+    /// Packings: the final σ is the mean over this much strain before the end.
+    pub final_window: f64,
 }
 
 impl Default for Analyse {
@@ -472,6 +474,7 @@ impl Default for Analyse {
             jamming_fraction: d::ANALYSE_JAMMING_FRACTION,
             small_strain: d::ANALYSE_SMALL_STRAIN,
             plateau_strain: d::ANALYSE_PLATEAU_STRAIN,
+            final_window: d::ANALYSE_FINAL_WINDOW,
         }
     }
 }

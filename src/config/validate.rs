@@ -137,7 +137,11 @@ fn analyse(a: &Analyse) -> Result<(), Failure> {
     if !(a.small_strain > 0.0 && a.small_strain < 1.0) {
         fail("analyse.small_strain", a.small_strain, "must be in (0, 1)")?;
     }
-    within("analyse.plateau_strain", a.plateau_strain, 0.0, 10.0)
+    within("analyse.plateau_strain", a.plateau_strain, 0.0, 10.0)?;
+    if !(a.final_window > 0.0 && a.final_window < 1.0) {
+        fail("analyse.final_window", a.final_window, "must be in (0, 1)")?;
+    }
+    Ok(())
 }
 
 fn prepare(p: &Prepare) -> Result<(), Failure> {

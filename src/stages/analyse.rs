@@ -16,8 +16,9 @@ use std::path::Path;
 
 /// Version of what this stage computes from unchanged upstream states, in its node's hash:
 /// bumping it redoes cached analyses (cheap) without recomputing what they read, as bumping
-/// `FORMAT_VERSION` would. Version 2 adds the fits' stress scale.
-pub const ANALYSIS_VERSION: u32 = 2;
+/// `FORMAT_VERSION` would. Version 2 adds the fits' stress scale; 3 the final σ over a
+/// window (`analyse.final_window`).
+pub const ANALYSIS_VERSION: u32 = 3;
 
 /// The checkpoint payload: the summary (as `summary.json` holds it) and the files written.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
