@@ -305,6 +305,31 @@ fn a_snapshot_this_build_cannot_read_is_kept_aside_not_overwritten() {
     // the fresh start ends as the first run did, and its own snapshot is gone
     assert!(std::fs::read(&compact).unwrap() == expected);
     assert!(!snapshots.join(&name).exists());
+    // a second foreign snapshot takes the next free name; `status` lists both
+    std::fs::remove_file(&compact).unwrap();
+    std::fs::write(snapshots.join(&name), b"another").unwrap();
+    let o = run_quietly(&file, &dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(snapshots.join(format!("{name}.unused.2"))).unwrap(),
+        b"another"
+    );
+    assert_eq!(std::fs::read(&kept).unwrap(), foreign);
+    let status = softgrain(&[
+        "pipeline",
+        "status",
+        file.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&status.stdout);
+    let line = text.lines().find(|l| l.contains("compact")).unwrap();
+    assert!(
+        line.contains(&format!(
+            "set aside, unreadable by the build that found them: {name}.unused, {name}.unused.2"
+        )),
+        "{text}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -406,8 +406,9 @@ fn report(opts: &RunOptions, node: &Node, what: &str) {
 /// One line per node: `cached` (`cached, files from other parameters` when another run
 /// rewrote its folder), `stale` (a checkpoint for other parameters exists) or `missing`;
 /// a node that is not cached and has a snapshot adds where it stood and when it was saved
-/// ("missing, snapshot at 40% (ε = 0.180) saved 12 min ago"). Reads file names, headers,
-/// `stage.json` and snapshot notes only; computes nothing.
+/// ("missing, snapshot at 40% (ε = 0.180) saved 12 min ago"), and any snapshots set aside
+/// as unreadable (`set_aside`). Reads file names, headers, `stage.json` and snapshot notes
+/// only; computes nothing.
 pub fn status(loaded: &Loaded, out: &Path) -> Vec<(Node, String)> {
     let root = run_dir(out, loaded);
     let ckpt_dir = root.join("checkpoints");
@@ -449,6 +450,14 @@ pub fn status(loaded: &Loaded, out: &Path) -> Vec<(Node, String)> {
                 }
                 _ => word.to_string(),
             };
+            let aside = set_aside_of(&snapshot);
+            let line = match aside.as_slice() {
+                [] => line,
+                names => format!(
+                    "{line}; set aside, unreadable by the build that found them: {}",
+                    names.join(", ")
+                ),
+            };
             (node, line)
         })
         .collect()
@@ -486,6 +495,30 @@ fn set_aside(snapshot: &Path) -> std::io::Result<PathBuf> {
         std::fs::rename(&note, note_to)?;
     }
     Ok(to)
+}
+
+/// The file names of the snapshots `set_aside` moved from `snapshot`, in order.
+fn set_aside_of(snapshot: &Path) -> Vec<String> {
+    let (Some(dir), Some(name)) = (snapshot.parent(), snapshot.file_name()) else {
+        return Vec::new();
+    };
+    let prefix = format!("{}.unused", name.to_string_lossy());
+    let mut found: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.starts_with(&prefix) && !n.ends_with(".json"))
+                .collect()
+        })
+        .unwrap_or_default();
+    // `.unused` first, then `.unused.2`, `.unused.3`, ... by number
+    found.sort_by_key(|n| {
+        n[prefix.len()..]
+            .trim_start_matches('.')
+            .parse::<u32>()
+            .unwrap_or(1)
+    });
+    found
 }
 
 /// Where a node's snapshot is kept while its stage runs.
