@@ -322,7 +322,7 @@ fn a_snapshot_this_build_cannot_read_is_kept_aside_not_overwritten() {
         "--out",
         dir.to_str().unwrap(),
     ]);
-    let text = String::from_utf8_lossy(&status.stdout);
+    let text = stdout(&status);
     let line = text.lines().find(|l| l.contains("compact")).unwrap();
     assert!(
         line.contains(&format!(
