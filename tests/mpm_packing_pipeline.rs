@@ -208,7 +208,7 @@ fn surface_contact_at_least_halves_the_overlap_of_a_small_mpm_packing() {
     // The grains' stress over the box is what the walls put in less the surface contact's
     // pair moment (`Packing::contact_moments`), within the wall contact nodes' offset from
     // the walls (up to a cell, 3% of this box's height) and the grains' ringing: measured
-    // 2.9% here and 1.7% for the node contact, whose pairs add nothing. The pairs' term is
+    // 2.1% here and 1.0% for the node contact, whose pairs add nothing. The pairs' term is
     // not small: 9.8% of the walls' stress.
     let late = &c.rows[2 * c.rows.len() / 3..];
     let mean = |rows: &[softgrain::compaction::Row], f: fn(&softgrain::compaction::Row) -> f64| {

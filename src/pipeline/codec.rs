@@ -19,7 +19,9 @@ use serde::de::DeserializeOwned;
 /// Version 13: the deposit's figures and snapshot record its one separation
 /// (`prepare.separate_at`). Version 14: a packing's rows and figures record the area under
 /// two grains (`overlap_area`). Version 15: they record how close the contact solves came
-/// to their tolerance (`residual`, `unconverged`, `SolveTally`).
+/// to their tolerance (`residual`, `unconverged`, `SolveTally`) and, MPM, the grains' stress
+/// over the box and the grain pairs' moment (`sigma_box`, `sigma_lever`); an MPM packing's
+/// contact records keep where their forces act (`applied`).
 pub const FORMAT_VERSION: u32 = 15;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {

@@ -152,7 +152,7 @@ struct Running {
     area0: f64,
     /// Sums over the current recording interval: wall forces (bottom, top, left, right),
     /// coupling iterations, steps; the worst gap, the contact solves, and the grains' stress
-    /// integral and the pairs' moment (yy; `Row::sigma_box`, `Row::sigma_lever`).
+    /// and the pairs' moment over the box (`Row::sigma_box`, `Row::sigma_lever`).
     forces: [f64; 4],
     iterations: u64,
     since: u64,
@@ -236,8 +236,10 @@ pub fn compact(
             st.forces[k] += walls[w].normal_force();
         }
         st.iterations += report.iterations as u64;
-        st.stress += st.pk.stress_integral()[(1, 1)];
-        st.lever += st.pk.contact_moments().1[(1, 1)];
+        // over this step's box: -Σ v_p σ_yy,p and the pairs' moment, per unit area
+        let area = st.pk.width * st.pk.height();
+        st.stress -= st.pk.stress_integral()[(1, 1)] / area;
+        st.lever += st.pk.contact_moments().1[(1, 1)] / area;
         st.since += 1;
         st.min_gap = st.min_gap.min(report.min_gap);
         let f = &mut st.figures;
@@ -378,8 +380,8 @@ fn record(st: &mut Running, mu: f64) {
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
         overlap_area: overlap::shared_area(&pk.grains),
         inertial: f64::NAN,
-        sigma_box: -st.stress / n / (width * height),
-        sigma_lever: st.lever / n / (width * height),
+        sigma_box: st.stress / n,
+        sigma_lever: st.lever / n,
         residual: st.solves.residual,
         unconverged: st.solves.unconverged,
     };
