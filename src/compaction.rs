@@ -134,6 +134,43 @@ pub struct Row {
     pub unconverged: u64,
 }
 
+/// Where a packing's worst interpenetration between two grains was, in `Row::overlap`'s
+/// measure (BPM: particle overlap over d_min; MPM: node gap over h_g).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct OverlapSite {
+    pub overlap: f64,
+    pub strain: f64,
+    /// BPM: the midpoint of the two particles' centres; MPM: the contact node (m).
+    pub at: [f64; 2],
+    pub grains: [u32; 2],
+}
+
+impl OverlapSite {
+    /// Keeps the deeper of the two sites.
+    pub fn deepest(self, other: OverlapSite) -> OverlapSite {
+        if other.overlap > self.overlap {
+            other
+        } else {
+            self
+        }
+    }
+
+    /// For a summary line: " at (x, y) mm, grains a and b, ε = …", or nothing without one.
+    pub fn note(&self) -> String {
+        if self.overlap <= 0.0 {
+            return String::new();
+        }
+        format!(
+            " at ({:.2}, {:.2}) mm between grains {} and {}, ε = {:.3}",
+            1e3 * self.at[0],
+            1e3 * self.at[1],
+            self.grains[0],
+            self.grains[1],
+            self.strain
+        )
+    }
+}
+
 /// How close the contact solves that set each step's forces came to their tolerance, over a
 /// recording interval. BPM: a step's one NLGS; MPM: the last NLGS of the step's coupling
 /// iterations (earlier ones only steer Newton's iterate).
@@ -302,8 +339,10 @@ pub struct PackingFigures {
     /// Contact solves stopped short of the tolerance: BPM, the unconverged steps; MPM, also
     /// those of a step's earlier coupling iterations.
     pub stopped_solves: u64,
-    /// Largest `Row::overlap` of the run.
+    /// Largest `Row::overlap` of the run ...
     pub overlap_max: f64,
+    /// ... where and when it was.
+    pub overlap_site: OverlapSite,
     /// Largest `Row::overlap_area` of the run.
     pub overlap_area_max: f64,
     /// Largest relative change of the total grain area over the run: the closed areas of

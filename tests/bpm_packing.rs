@@ -129,6 +129,17 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
         "area under two grains {}",
         c.figures.overlap_area_max
     );
+    // the worst overlap is located between two grains, at a recorded strain
+    let site = c.figures.overlap_site;
+    assert!(
+        site.overlap == c.figures.overlap_max && site.overlap > 0.0,
+        "{site:?}"
+    );
+    assert!(site.grains[0] != site.grains[1]);
+    assert!(
+        rows.iter()
+            .any(|r| r.strain == site.strain && r.overlap == site.overlap)
+    );
     // the rows account for every step's contact solve
     let unconverged: u64 = rows.iter().map(|r| r.unconverged).sum();
     assert_eq!(unconverged, c.figures.unconverged_steps);

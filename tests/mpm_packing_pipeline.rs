@@ -106,6 +106,22 @@ fn a_small_mpm_packing_jams_with_phi_following_the_box_and_the_grain_area() {
     };
     let (mid, end) = (mean(&rows[n / 3..2 * n / 3]), mean(&rows[2 * n / 3..]));
     assert!(end > 2.0 * mid && end > 0.0, "σ: {mid} then {end}");
+    // the worst overlap is located: two grains, a node inside the box, a recorded strain
+    let site = c.figures.overlap_site;
+    assert!(
+        site.overlap == c.figures.overlap_max && site.overlap > 0.0,
+        "{site:?}"
+    );
+    assert!(site.grains[0] != site.grains[1] && site.grains.iter().all(|&g| g < 12));
+    assert!(
+        rows.iter()
+            .any(|r| r.strain == site.strain && r.overlap == site.overlap)
+    );
+    let (w, h) = (c.geometry.width, c.geometry.height(site.strain));
+    assert!(
+        (0.0..=w).contains(&site.at[0]) && (0.0..=h).contains(&site.at[1]),
+        "{site:?}"
+    );
     // every step kept converged contact forces, and the rows say how close they came
     assert_eq!(c.figures.unconverged_steps, 0);
     assert!(rows.iter().all(|r| r.unconverged == 0 && r.residual <= 1.0));

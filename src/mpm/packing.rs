@@ -156,8 +156,11 @@ pub struct StepReport {
     pub halvings: u64,
     /// Node contacts carrying a force at the end of the step.
     pub active: usize,
-    /// Most negative point-cloud gap between two grains at a contact node (m, <= 0).
+    /// Most negative point-cloud gap between two grains at a contact node (m, <= 0), that
+    /// node's position and the two grains.
     pub min_gap: f64,
+    pub min_gap_at: [f64; 2],
+    pub min_gap_grains: [usize; 2],
     /// Nodes where three or more grains meet (contacts of two or more grain pairs).
     pub multi_grain_nodes: usize,
 }
@@ -544,11 +547,16 @@ impl Packing {
         if crate::shortcuts::get().warm_start {
             nc::warm_start(&mut ws.contacts, &self.warm);
         }
-        report.min_gap = ws
-            .contacts
-            .iter()
-            .filter(|c| matches!(c.partner, Partner::Grain(_)))
-            .fold(report.min_gap, |m, c| m.min(c.gap));
+        for c in &ws.contacts {
+            if let Partner::Grain(b) = c.partner
+                && c.gap < report.min_gap
+            {
+                report.min_gap = c.gap;
+                let x = grid.node_position(c.node);
+                report.min_gap_at = [x.x, x.y];
+                report.min_gap_grains = [c.a, b];
+            }
+        }
         let mut pair_nodes: Vec<usize> = ws
             .contacts
             .iter()

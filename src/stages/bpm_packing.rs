@@ -24,7 +24,8 @@ use super::frames::FrameLog;
 use crate::bpm::{BpmLaw, measure};
 use crate::cd::{LawTable, Partner, Scene};
 use crate::compaction::{
-    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row, SolveTally,
+    self, BoxGeometry, ForceLine, OverlapSite, PackingCompacted, PackingFigures, Particle, Row,
+    SolveTally,
 };
 use crate::config::{Compact, Method, Pipeline, defaults};
 use crate::geom::{V2, Wall};
@@ -247,12 +248,22 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
     // walls touched by each grain, one bit each
     let mut walls = vec![0u8; st.grains];
     let mut overlap: f64 = 0.0;
+    let mut site = OverlapSite::default();
     let mut lenses = 0.0;
     for (c, gap) in scene.contacts.iter().zip(scene.current_gaps()) {
         let gi = b.group[c.i as usize] as usize;
         match c.j {
             Partner::Body(j) if b.group[j as usize] as usize != gi => {
-                overlap = overlap.max(-gap / d_min);
+                if -gap / d_min > overlap {
+                    overlap = -gap / d_min;
+                    let mid = 0.5 * (b.pos[c.i as usize] + b.pos[j as usize]);
+                    site = OverlapSite {
+                        overlap,
+                        strain: 0.0,
+                        at: [mid.x, mid.y],
+                        grains: [gi as u32, b.group[j as usize]],
+                    };
+                }
                 if gap < 0.0 {
                     let (ri, rj) = (b.radius[c.i as usize], b.radius[j as usize]);
                     lenses += measure::lens_area(ri, rj, ri + rj + gap);
@@ -301,6 +312,10 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
+    f.overlap_site = f.overlap_site.deepest(OverlapSite {
+        strain: row.strain,
+        ..site
+    });
     f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
     f.area_change = f.area_change.max((area / st.area0 - 1.0).abs());
     f.residual_max = f.residual_max.max(row.residual);
@@ -353,11 +368,12 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(PackingCompacted, String), Str
         .collect();
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} steps, {:.0} NLGS sweeps/step, {}, worst overlap {:.1e} d_min{}",
+        "{} steps, {:.0} NLGS sweeps/step, {}, worst overlap {:.1e} d_min{}{}",
         f.steps,
         f.iterations_mean,
         last.state(),
         f.overlap_max,
+        f.overlap_site.note(),
         f.unconverged_note()
     );
     Ok((

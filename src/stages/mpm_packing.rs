@@ -14,7 +14,8 @@
 use super::frames::FrameLog;
 use super::prepare::Prepared;
 use crate::compaction::{
-    self, BoxGeometry, ForceLine, PackingCompacted, PackingFigures, Particle, Row, SolveTally,
+    self, BoxGeometry, ForceLine, OverlapSite, PackingCompacted, PackingFigures, Particle, Row,
+    SolveTally,
 };
 use crate::config::{Method, Model, Mpm, Pipeline, Shape};
 use crate::geom::V2;
@@ -157,6 +158,8 @@ struct Running {
     iterations: u64,
     since: u64,
     min_gap: f64,
+    /// Where `min_gap` was (its `overlap` and `strain` filled at the row).
+    deepest: OverlapSite,
     solves: SolveTally,
     stress: f64,
     lever: f64,
@@ -215,6 +218,7 @@ pub fn compact(
                     iterations: 0,
                     since: 0,
                     min_gap: 0.0,
+                    deepest: OverlapSite::default(),
                     solves: SolveTally::default(),
                     stress: 0.0,
                     lever: 0.0,
@@ -241,7 +245,15 @@ pub fn compact(
         st.stress -= st.pk.stress_integral()[(1, 1)] / area;
         st.lever += st.pk.contact_moments().1[(1, 1)] / area;
         st.since += 1;
-        st.min_gap = st.min_gap.min(report.min_gap);
+        if report.min_gap < st.min_gap {
+            st.min_gap = report.min_gap;
+            let [a, b] = report.min_gap_grains;
+            st.deepest = OverlapSite {
+                at: report.min_gap_at,
+                grains: [a as u32, b as u32],
+                ..OverlapSite::default()
+            };
+        }
         let f = &mut st.figures;
         f.steps += 1;
         f.iterations_max = f.iterations_max.max(report.iterations as u64);
@@ -289,7 +301,7 @@ pub fn compact(
     f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g, area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{}, area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
         st.pk.grains.len(),
         st.pk.grains.iter().map(Points::len).sum::<usize>(),
         steps,
@@ -297,6 +309,7 @@ pub fn compact(
         f.iterations_mean,
         last.state(),
         f.overlap_max,
+        f.overlap_site.note(),
         100.0 * last.overlap_area,
         100.0 * f.overlap_area_max,
         100.0 * f.area_change,
@@ -388,6 +401,11 @@ fn record(st: &mut Running, mu: f64) {
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     let f = &mut st.figures;
     f.overlap_max = f.overlap_max.max(row.overlap);
+    f.overlap_site = f.overlap_site.deepest(OverlapSite {
+        overlap: row.overlap,
+        strain: row.strain,
+        ..st.deepest
+    });
     f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
     f.area_change = f.area_change.max((pk.grain_area() / st.area0 - 1.0).abs());
     f.residual_max = f.residual_max.max(row.residual);
@@ -396,6 +414,7 @@ fn record(st: &mut Running, mu: f64) {
     }
     st.rows.push(row);
     (st.forces, st.iterations, st.since, st.min_gap) = ([0.0; 4], 0, 0, 0.0);
+    st.deepest = OverlapSite::default();
     st.solves = SolveTally::default();
     (st.stress, st.lever) = (0.0, 0.0);
 }
