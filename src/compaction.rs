@@ -341,8 +341,11 @@ pub struct PackingFigures {
     pub stopped_solves: u64,
     /// Largest `Row::overlap` of the run ...
     pub overlap_max: f64,
-    /// ... where and when it was.
+    /// ... where and when it was ...
     pub overlap_site: OverlapSite,
+    /// ... and the largest once loaded (`max_after_jamming`): before, grains of the gas the
+    /// wall drives collide (100 MPM grains: 1.83 h_g at ε = 0.134, against 1.06 under load).
+    pub overlap_max_loaded: f64,
     /// Largest `Row::overlap_area` of the run.
     pub overlap_area_max: f64,
     /// Largest relative change of the total grain area over the run: the closed areas of

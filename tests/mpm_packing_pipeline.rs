@@ -117,6 +117,11 @@ fn a_small_mpm_packing_jams_with_phi_following_the_box_and_the_grain_area() {
         rows.iter()
             .any(|r| r.strain == site.strain && r.overlap == site.overlap)
     );
+    let loaded = c.figures.overlap_max_loaded;
+    assert!(
+        loaded > 0.0 && loaded <= site.overlap,
+        "{loaded} once loaded, {site:?}"
+    );
     let (w, h) = (c.geometry.width, c.geometry.height(site.strain));
     assert!(
         (0.0..=w).contains(&site.at[0]) && (0.0..=h).contains(&site.at[1]),

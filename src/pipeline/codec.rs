@@ -22,8 +22,9 @@ use serde::de::DeserializeOwned;
 /// to their tolerance (`residual`, `unconverged`, `SolveTally`) and, MPM, the grains' stress
 /// over the box and the grain pairs' moment (`sigma_box`, `sigma_lever`); an MPM packing's
 /// contact records keep where their forces act (`applied`). Version 16: a packing's figures
-/// say where its worst overlap was (`overlap_site`).
-pub const FORMAT_VERSION: u32 = 16;
+/// say where its worst overlap was (`overlap_site`); version 17 the worst once loaded
+/// (`overlap_max_loaded`).
+pub const FORMAT_VERSION: u32 = 17;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

@@ -337,6 +337,7 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(PackingCompacted, String), Str
     f.iterations_mean /= f.steps.max(1) as f64;
     f.kinetic_ratio_max = compaction::max_after_jamming(&st.rows, |r| r.kinetic_ratio);
     f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
+    f.overlap_max_loaded = compaction::max_after_jamming(&st.rows, |r| r.overlap);
     ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
         .map_err(|e| format!("writing output in {}: {e}", ctx.dir.display()))?;
     let b = &st.scene.bodies;
@@ -368,12 +369,13 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(PackingCompacted, String), Str
         .collect();
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} steps, {:.0} NLGS sweeps/step, {}, worst overlap {:.1e} d_min{}{}",
+        "{} steps, {:.0} NLGS sweeps/step, {}, worst overlap {:.1e} d_min{} ({:.1e} once loaded){}",
         f.steps,
         f.iterations_mean,
         last.state(),
         f.overlap_max,
         f.overlap_site.note(),
+        f.overlap_max_loaded,
         f.unconverged_note()
     );
     Ok((

@@ -299,9 +299,10 @@ pub fn compact(
         st.rows.iter().map(|r| r.iterations).sum::<f64>() / st.rows.len().max(1) as f64;
     f.mass_change = Some((st.pk.total_mass() - st.mass0).abs() / st.mass0);
     f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
+    f.overlap_max_loaded = compaction::max_after_jamming(&st.rows, |r| r.overlap);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{}, area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
         st.pk.grains.len(),
         st.pk.grains.iter().map(Points::len).sum::<usize>(),
         steps,
@@ -310,6 +311,7 @@ pub fn compact(
         last.state(),
         f.overlap_max,
         f.overlap_site.note(),
+        f.overlap_max_loaded,
         100.0 * last.overlap_area,
         100.0 * f.overlap_area_max,
         100.0 * f.area_change,
