@@ -66,6 +66,12 @@ fn run_loudly(file: &Path, out: &Path) -> std::process::Output {
     softgrain(&["pipeline", "run", file, "--out", out])
 }
 
+/// `softgrain pipeline status FILE --out OUT`'s stdout.
+fn status(file: &Path, out: &Path) -> String {
+    let (file, out) = (file.to_str().unwrap(), out.to_str().unwrap());
+    stdout(&softgrain(&["pipeline", "status", file, "--out", out]))
+}
+
 fn files(run: &Path, rel: &str) -> Vec<u8> {
     std::fs::read(run.join(rel)).unwrap()
 }
@@ -209,16 +215,7 @@ fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
         std::thread::sleep(Duration::from_millis(20));
     }
     // `status` names the run that holds the folder
-    let status_of = |dir: &Path| {
-        stdout(&softgrain(&[
-            "pipeline",
-            "status",
-            file.to_str().unwrap(),
-            "--out",
-            dir.to_str().unwrap(),
-        ]))
-    };
-    let now = status_of(&dir);
+    let now = status(&file, &dir);
     assert!(
         now.contains(&format!("a run (pid {}) is writing", child.id())),
         "{now}"
@@ -227,13 +224,13 @@ fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
         .args([&format!("-{signal}"), &child.id().to_string()])
         .status();
     let sent = Instant::now();
-    let status = child.wait().unwrap();
+    let exit = child.wait().unwrap();
     assert!(
         sent.elapsed() < Duration::from_secs(1),
         "took {:?}",
         sent.elapsed()
     );
-    assert_eq!(status.code(), Some(1));
+    assert_eq!(exit.code(), Some(1));
     let mut err = String::new();
     std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
     assert!(err.contains("interrupted; a snapshot was saved"), "{err}");
@@ -243,7 +240,7 @@ fn signal_saves_a_snapshot_and_stops_within_a_second(signal: &str) {
         .collect();
     // the snapshot and its note (where it stood, the wall time so far)
     assert_eq!(snaps.len(), 2);
-    let after = status_of(&dir);
+    let after = status(&file, &dir);
     let line = after.lines().find(|l| l.starts_with("compact")).unwrap();
     assert!(
         line.contains("missing, snapshot at ") && line.contains("(ε = "),
@@ -315,14 +312,7 @@ fn a_snapshot_this_build_cannot_read_is_kept_aside_not_overwritten() {
         b"another"
     );
     assert_eq!(std::fs::read(&kept).unwrap(), foreign);
-    let status = softgrain(&[
-        "pipeline",
-        "status",
-        file.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    let text = stdout(&status);
+    let text = status(&file, &dir);
     let line = text.lines().find(|l| l.contains("compact")).unwrap();
     assert!(
         line.contains(&format!(

@@ -110,7 +110,7 @@ pub struct NodeContact {
 
 impl NodeContact {
     pub fn tangent(&self) -> Vector2<f64> {
-        Vector2::new(-self.normal.y, self.normal.x)
+        crate::geom::perp(self.normal)
     }
 
     /// Force on grain `a` (N/m).
@@ -385,7 +385,7 @@ pub fn detect(
         let n = d / len;
         // Only the points within half a cell of the node across the normal: over the
         // whole support a tilted normal adds the clouds' lateral spread to the gap.
-        let (t, xi) = (Vector2::new(-n.y, n.x), grid.node_position(node));
+        let (t, xi) = (crate::geom::perp(n), grid.node_position(node));
         let near = |x: &Vector2<f64>| (x - xi).dot(&t).abs() <= 0.5 * grid.h;
         // each point's face toward the other grain, along n
         let face_a =

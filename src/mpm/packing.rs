@@ -184,8 +184,7 @@ pub struct ContactRecord {
 impl ContactRecord {
     /// The force on `grain` (N/m).
     pub fn force(&self) -> Vector2<f64> {
-        let t = Vector2::new(-self.normal.y, self.normal.x);
-        self.normal * self.force_n + t * self.force_t
+        self.normal * self.force_n + crate::geom::perp(self.normal) * self.force_t
     }
 }
 
