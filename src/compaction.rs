@@ -115,6 +115,11 @@ pub struct Row {
     /// squares of their area (`mpm::overlap::shared_area`); BPM: the lens areas of the
     /// particle overlaps between grains over the grains' area.
     pub overlap_area: f64,
+    /// Share of the particles (BPM) or material points (MPM) whose centre lies inside another
+    /// grain: inside one of its particles, or one of its points' domains carried by F
+    /// (`mpm::overlap::points_inside`). Each marks an overlap deeper than the particle's
+    /// radius or the point's half-size there; grains that only touch have none.
+    pub points_inside: f64,
     /// Inertial number I = ε̇ d sqrt(ρ/p) (`inertial_number`): the time to rearrange a grain
     /// under the confining pressure over the time the wall takes to strain the packing.
     /// Quasi-static flow has I ≲ 1e-3 (GDR MiDi 2004). NaN while the walls carry no load.
@@ -232,12 +237,12 @@ impl GrainScale {
 /// The time series as CSV, the contract's `time,strain,phi,z,sigma` first.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial,overlap_area,residual,unconverged,sigma_box,sigma_lever\n",
+        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial,overlap_area,residual,unconverged,sigma_box,sigma_lever,points_inside\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.time,
             r.strain,
             r.phi,
@@ -257,7 +262,8 @@ pub fn csv(rows: &[Row]) -> String {
             r.residual,
             r.unconverged,
             r.sigma_box,
-            r.sigma_lever
+            r.sigma_lever,
+            r.points_inside
         );
     }
     s
@@ -348,6 +354,8 @@ pub struct PackingFigures {
     pub overlap_max_loaded: f64,
     /// Largest `Row::overlap_area` of the run.
     pub overlap_area_max: f64,
+    /// Largest `Row::points_inside` of the run.
+    pub points_inside_max: f64,
     /// Largest relative change of the total grain area over the run: the closed areas of
     /// the aggregates (BPM), Σ v_p of the points (MPM).
     pub area_change: f64,

@@ -129,6 +129,9 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
         "area under two grains {}",
         c.figures.overlap_area_max
     );
+    // so no particle's centre lies inside another grain's particle (an overlap past its radius)
+    assert_eq!(c.figures.points_inside_max, 0.0);
+    assert!(rows.iter().all(|r| r.points_inside == 0.0));
     // the worst overlap is located between two grains, at a recorded strain
     let site = c.figures.overlap_site;
     assert!(

@@ -1,12 +1,21 @@
-//! The area under two grains: how far MPM grains pass into each other, as a share of the
-//! area they cover (README, "Open problem: interpenetration").
+//! How far MPM grains pass into each other (README, "Open problem: interpenetration"),
+//! measured on the material points rather than at the contact nodes.
 //!
-//! Each material point is drawn as the square of its current area v_p (side √v_p centred
-//! on the point; the shear of F is ignored), on one raster for all grains with pixels of
-//! `1/PIXELS_PER_SIDE` of the smallest side. A pixel is covered by a square when its centre
-//! lies in it, so each edge is placed to half a pixel. The worst node gap, the other
-//! measure, is one node at one step; this one counts every overlap and moves smoothly.
-//! `bench/mpm_overlap_area.py` is the same measure, read from a frame.
+//! * `shared_area`, the area under two grains: each material point is drawn as the square
+//!   of its current area v_p (side √v_p centred on the point; the shear of F is ignored),
+//!   on one raster for all grains with pixels of `1/PIXELS_PER_SIDE` of the smallest side.
+//!   A pixel is covered by a square when its centre lies in it, so each edge is placed to
+//!   half a pixel. The worst node gap, the other measure, is one node at one step; this one
+//!   counts every overlap and moves smoothly. `bench/mpm_overlap_area.py` is the same
+//!   measure, read from a frame. Its squares are axis-aligned, so two grains touching along
+//!   a slanted face share the corners of their staircases: a floor that falls with the
+//!   cell (README).
+//! * `points_inside`, the points whose centre lies inside another grain: inside one of its
+//!   points' domains, each the reference rectangle of the point's extents (clipped by the
+//!   seeded circle) carried by its F. A point's centre lies a half-size (Δr/2 = h_g/4)
+//!   inside its own grain's face, so grains that touch, or overlap by less than that, have
+//!   none; every point counted marks an overlap deeper than a point's half-size. No
+//!   staircase: the domains carry the shear.
 
 use super::points::Points;
 use nalgebra::Vector2;
@@ -76,9 +85,91 @@ fn shared_share(grains: &[(&[Vector2<f64>], &[f64])]) -> f64 {
     shared as f64 / covered.max(1) as f64
 }
 
+/// The points, over all grains, whose centre lies strictly inside a point domain of another
+/// grain: the rectangle `[-e0, e1] × [-e2, e3]` of the point's initial extents
+/// (`Points::extent`) mapped by its F about its centre. Each domain is binned by its
+/// bounding box on a grid whose bin is the largest box side, so a centre meets a few
+/// domains per grain nearby.
+pub fn points_inside(grains: &[Points]) -> usize {
+    // each domain's bounding box, from its four corners
+    let boxes: Vec<Vec<(Vector2<f64>, Vector2<f64>)>> = grains
+        .iter()
+        .map(|g| (0..g.len()).map(|q| domain_box(g, q)).collect())
+        .collect();
+    let (mut lo, mut hi, mut bin) = (
+        Vector2::repeat(f64::INFINITY),
+        Vector2::repeat(f64::NEG_INFINITY),
+        0.0f64,
+    );
+    for (a, b) in boxes.iter().flatten() {
+        lo = lo.inf(a);
+        hi = hi.sup(b);
+        bin = bin.max((b - a).max());
+    }
+    if !(bin > 0.0 && bin.is_finite()) {
+        return 0;
+    }
+    let nx = ((hi.x - lo.x) / bin) as usize + 1;
+    let ny = ((hi.y - lo.y) / bin) as usize + 1;
+    let cell = |x: Vector2<f64>| {
+        let c = (x - lo) / bin;
+        ((c.x as usize).min(nx - 1), (c.y as usize).min(ny - 1))
+    };
+    let mut bins: Vec<Vec<(u32, u32)>> = vec![Vec::new(); nx * ny];
+    for (g, list) in boxes.iter().enumerate() {
+        for (q, (a, b)) in list.iter().enumerate() {
+            let ((i0, j0), (i1, j1)) = (cell(*a), cell(*b));
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    bins[j * nx + i].push((g as u32, q as u32));
+                }
+            }
+        }
+    }
+    let mut count = 0;
+    for (a, pts) in grains.iter().enumerate() {
+        for x in &pts.x {
+            if x.x < lo.x || x.y < lo.y || x.x > hi.x || x.y > hi.y {
+                continue;
+            }
+            let (i, j) = cell(*x);
+            let inside = bins[j * nx + i]
+                .iter()
+                .any(|&(g, q)| g as usize != a && in_domain(&grains[g as usize], q as usize, x));
+            count += usize::from(inside);
+        }
+    }
+    count
+}
+
+/// Corners of point `q`'s domain: its centre plus F times the reference rectangle's corners.
+fn domain_corners(g: &Points, q: usize) -> [Vector2<f64>; 4] {
+    let e = g.extent[q];
+    [(-e[0], -e[2]), (e[1], -e[2]), (-e[0], e[3]), (e[1], e[3])]
+        .map(|(u, v)| g.x[q] + g.def_grad[q] * Vector2::new(u, v))
+}
+
+fn domain_box(g: &Points, q: usize) -> (Vector2<f64>, Vector2<f64>) {
+    let c = domain_corners(g, q);
+    (
+        c.iter().fold(c[0], |m, p| m.inf(p)),
+        c.iter().fold(c[0], |m, p| m.sup(p)),
+    )
+}
+
+/// Whether `x` lies strictly inside point `q`'s domain (pulled back through F).
+fn in_domain(g: &Points, q: usize, x: &Vector2<f64>) -> bool {
+    let Some(inv) = g.def_grad[q].try_inverse() else {
+        return false;
+    };
+    let (r, e) = (inv * (x - g.x[q]), g.extent[q]);
+    -e[0] < r.x && r.x < e[1] && -e[2] < r.y && r.y < e[3]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Matrix2;
 
     /// A grain of `n × n` points of side `s` filling the square of side `n s` at `corner`.
     fn block(corner: Vector2<f64>, n: usize, s: f64) -> (Vec<Vector2<f64>>, Vec<f64>) {
@@ -86,6 +177,53 @@ mod tests {
             .map(|k| corner + Vector2::new((k % n) as f64 + 0.5, (k / n) as f64 + 0.5) * s)
             .collect();
         (x, vec![s * s; n * n])
+    }
+
+    /// `block` as a grain of points with square domains (extents s/2) and the given F.
+    fn grain(corner: Vector2<f64>, n: usize, s: f64, f: Matrix2<f64>) -> Points {
+        let (x, vol) = block(corner, n, s);
+        Points {
+            def_grad: vec![f; x.len()],
+            extent: vec![[0.5 * s; 4]; x.len()],
+            vol,
+            x,
+            ..Points::default()
+        }
+    }
+
+    #[test]
+    fn grains_count_points_inside_only_past_a_half_size() {
+        let (n, s, id) = (4, 0.25, Matrix2::identity());
+        let a = grain(Vector2::zeros(), n, s, id);
+        let at = |dx: f64| grain(Vector2::new(n as f64 * s - dx, 0.0), n, s, id);
+        // touching, and overlapping by less than a point's half-size s/2: no centre inside
+        assert_eq!(points_inside(&[a.clone(), at(0.0)]), 0);
+        assert_eq!(points_inside(&[a.clone(), at(0.4 * s)]), 0);
+        // overlapping by 0.6 s: each grain's outer column has its centres in the other's
+        assert_eq!(points_inside(&[a.clone(), at(0.6 * s)]), 2 * n);
+        // one grain's own points never count, however they overlap
+        assert_eq!(points_inside(std::slice::from_ref(&a)), 0);
+        assert_eq!(points_inside(&[]), 0);
+    }
+
+    #[test]
+    fn a_sheared_domain_is_its_parallelogram_not_a_square() {
+        // F a simple shear: the domain of half-size l is the parallelogram with corners
+        // (±l ± l, ±l). (1.5 l, 0.9 l) pulls back to (0.6 l, 0.9 l): inside, though outside
+        // the axis-aligned square of the same area; (-1.5 l, 0.9 l) to (-2.4 l, 0.9 l): out.
+        let l = 0.1;
+        let shear = Matrix2::new(1.0, 1.0, 0.0, 1.0);
+        let q = grain(Vector2::repeat(-l), 1, 2.0 * l, shear);
+        let probe = |x: f64, y: f64| Points {
+            x: vec![Vector2::new(x, y)],
+            def_grad: vec![Matrix2::identity()],
+            extent: vec![[0.01; 4]],
+            ..Points::default()
+        };
+        assert_eq!(q.x[0], Vector2::zeros());
+        assert_eq!(points_inside(&[q.clone(), probe(1.5 * l, 0.9 * l)]), 1);
+        assert_eq!(points_inside(&[q.clone(), probe(-1.5 * l, 0.9 * l)]), 0);
+        assert_eq!(points_inside(&[q, probe(-1.5 * l, -0.9 * l)]), 1);
     }
 
     #[test]

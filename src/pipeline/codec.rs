@@ -23,8 +23,9 @@ use serde::de::DeserializeOwned;
 /// over the box and the grain pairs' moment (`sigma_box`, `sigma_lever`); an MPM packing's
 /// contact records keep where their forces act (`applied`). Version 16: a packing's figures
 /// say where its worst overlap was (`overlap_site`); version 17 the worst once loaded
-/// (`overlap_max_loaded`).
-pub const FORMAT_VERSION: u32 = 17;
+/// (`overlap_max_loaded`). Version 18: a packing's rows and figures record the share of
+/// particles or points whose centre lies inside another grain (`points_inside`).
+pub const FORMAT_VERSION: u32 = 18;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

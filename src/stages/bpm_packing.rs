@@ -250,6 +250,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
     let mut overlap: f64 = 0.0;
     let mut site = OverlapSite::default();
     let mut lenses = 0.0;
+    let mut inside = vec![false; b.len()];
     for (c, gap) in scene.contacts.iter().zip(scene.current_gaps()) {
         let gi = b.group[c.i as usize] as usize;
         match c.j {
@@ -267,6 +268,9 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
                 if gap < 0.0 {
                     let (ri, rj) = (b.radius[c.i as usize], b.radius[j as usize]);
                     lenses += measure::lens_area(ri, rj, ri + rj + gap);
+                    // a centre lies inside the other disk when the gap passes its own radius
+                    inside[c.i as usize] |= gap < -ri;
+                    inside[j as usize] |= gap < -rj;
                 }
                 if c.p_n > 0.0 {
                     pairs.push((gi, b.group[j as usize] as usize));
@@ -303,6 +307,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
         },
         overlap: overlap.max(0.0),
         overlap_area: lenses / area,
+        points_inside: inside.iter().filter(|&&i| i).count() as f64 / inside.len() as f64,
         inertial: f64::NAN,
         sigma_box: f64::NAN,
         sigma_lever: f64::NAN,
@@ -317,6 +322,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
         ..site
     });
     f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
+    f.points_inside_max = f.points_inside_max.max(row.points_inside);
     f.area_change = f.area_change.max((area / st.area0 - 1.0).abs());
     f.residual_max = f.residual_max.max(row.residual);
     st.rows.push(row);
@@ -369,13 +375,14 @@ fn finish(ctx: &StageCtx, st: Running) -> Result<(PackingCompacted, String), Str
         .collect();
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} steps, {:.0} NLGS sweeps/step, {}, worst overlap {:.1e} d_min{} ({:.1e} once loaded){}",
+        "{} steps, {:.0} NLGS sweeps/step, {}, worst overlap {:.1e} d_min{} ({:.1e} once loaded), particles with their centre inside another grain {:.2}% at most{}",
         f.steps,
         f.iterations_mean,
         last.state(),
         f.overlap_max,
         f.overlap_site.note(),
         f.overlap_max_loaded,
+        100.0 * f.points_inside_max,
         f.unconverged_note()
     );
     Ok((

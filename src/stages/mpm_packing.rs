@@ -302,7 +302,7 @@ pub fn compact(
     f.overlap_max_loaded = compaction::max_after_jamming(&st.rows, |r| r.overlap);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
         st.pk.grains.len(),
         st.pk.grains.iter().map(Points::len).sum::<usize>(),
         steps,
@@ -314,6 +314,8 @@ pub fn compact(
         f.overlap_max_loaded,
         100.0 * last.overlap_area,
         100.0 * f.overlap_area_max,
+        100.0 * last.points_inside,
+        100.0 * f.points_inside_max,
         100.0 * f.area_change,
         f.unconverged_note()
     );
@@ -394,6 +396,8 @@ fn record(st: &mut Running, mu: f64) {
         kinetic_ratio: ke / (pk.elastic_energy() + 1e-30),
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
         overlap_area: overlap::shared_area(&pk.grains),
+        points_inside: overlap::points_inside(&pk.grains) as f64
+            / pk.grains.iter().map(Points::len).sum::<usize>() as f64,
         inertial: f64::NAN,
         sigma_box: st.stress / n,
         sigma_lever: st.lever / n,
@@ -409,6 +413,7 @@ fn record(st: &mut Running, mu: f64) {
         ..st.deepest
     });
     f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
+    f.points_inside_max = f.points_inside_max.max(row.points_inside);
     f.area_change = f.area_change.max((pk.grain_area() / st.area0 - 1.0).abs());
     f.residual_max = f.residual_max.max(row.residual);
     if st.touched_top {

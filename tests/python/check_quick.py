@@ -58,6 +58,7 @@ for case in ("bpm-mu0", "bpm-mu0.5"):
     check(f"{case}: inertial number defined once loaded", 0 < float(last["inertial"]) < 1)
     # rigid particles overlapping by the solver's tolerance: almost no area under two grains
     check(f"{case}: area under two grains below 1e-4", max(float(r["overlap_area"]) for r in rows) < 1e-4)
+    check(f"{case}: no particle centre inside another grain", all(float(r["points_inside"]) == 0 for r in rows))
     net = pv.read(str(sorted(comp.glob("contacts_*.vtu"))[-1]))
     check(f"{case}: force network with normal_force", net.n_cells > 0 and float(np.max(net.cell_data["normal_force"])) > 0)
     checks += 7
