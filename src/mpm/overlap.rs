@@ -12,10 +12,10 @@
 //!   cell (README).
 //! * `points_inside`, the points whose centre lies inside another grain: inside one of its
 //!   points' domains, each the reference rectangle of the point's extents (clipped by the
-//!   seeded circle) carried by its F. A point's centre lies a half-size (Δr/2 = h_g/4)
-//!   inside its own grain's face, so grains that touch, or overlap by less than that, have
-//!   none; every point counted marks an overlap deeper than a point's half-size. No
-//!   staircase: the domains carry the shear.
+//!   seeded circle) carried by its F. A point's centre lies its reach (a half-size,
+//!   Δr/2 = h_g/4, or less where the circle clips it) inside its own grain's face, so
+//!   grains that touch, or overlap by less than that, have none; every point counted marks
+//!   an overlap deeper than its reach. No staircase: the domains carry the shear.
 
 use super::points::Points;
 use nalgebra::Vector2;
