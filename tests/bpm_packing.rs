@@ -214,6 +214,11 @@ fn from_a_dense_start_a_bpm_packing_shows_the_papers_trends_past_jamming() {
         let df = series::packing(case, c).unwrap();
         let (s, _) = summary::packing(&df, &Default::default()).unwrap();
         assert!(s.fit_points.unwrap() >= 20, "{s:?}");
+        // the analysis reads the run's interpenetration and solver record from its rows
+        let f = &c.figures;
+        assert_eq!(s.overlap_max, Some(f.overlap_max));
+        assert_eq!(s.points_inside_max, Some(f.points_inside_max));
+        assert_eq!(s.unconverged_steps, Some(f.unconverged_steps as f64));
         s.stress_scale.unwrap()
     };
     let (s0, s5) = (scale(&smooth, "bpm-mu0"), scale(&rough, "bpm-mu0.5"));

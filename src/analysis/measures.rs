@@ -17,6 +17,18 @@ pub fn last(df: &DataFrame, name: &str) -> PolarsResult<Option<f64>> {
     scalar(&out, name)
 }
 
+/// The largest value of a column (None for an empty frame).
+pub fn max(df: &DataFrame, name: &str) -> PolarsResult<Option<f64>> {
+    let out = df.clone().lazy().select([col(name).max()]).collect()?;
+    scalar(&out, name)
+}
+
+/// The sum of a column.
+pub fn sum(df: &DataFrame, name: &str) -> PolarsResult<Option<f64>> {
+    let out = df.clone().lazy().select([col(name).sum()]).collect()?;
+    scalar(&out, name)
+}
+
 /// y where x first reaches x0, linear between that row and the one before (the first row
 /// itself if it is already there); None if x never reaches x0.
 pub fn crossing(df: &DataFrame, x: &str, y: &str, x0: f64) -> PolarsResult<Option<f64>> {

@@ -90,6 +90,26 @@ fn fits(cases: &[CaseSummary]) -> String {
     t
 }
 
+/// How far the packings' grains passed into each other, and how well each step was solved.
+fn soundness(cases: &[CaseSummary]) -> String {
+    let mut t = String::from(
+        "| case | worst overlap | points inside another grain, at most | steps whose contact forces stopped short of the tolerance |\n| --- | --- | --- | --- |\n",
+    );
+    for c in cases.iter().filter(|c| c.kind == "packing") {
+        let unit = if c.method == "bpm" { "d_min" } else { "h_g" };
+        let _ = writeln!(
+            t,
+            "| {} | {} {unit} | {}% | {} |",
+            c.case,
+            c.overlap_max.map_or("—".into(), num),
+            c.points_inside_max.map_or("—".into(), |v| num(100.0 * v)),
+            c.unconverged_steps
+                .map_or("—".into(), |v| format!("{v:.0}"))
+        );
+    }
+    t
+}
+
 /// The BPM grains' plateau beside what sets it (README, "the plateau level"): the
 /// attraction's prestress σ_c and the contact network's mobilised friction s give a
 /// grain-mean vertical stress 2 σ_c s/(1 − s), all in units of F0/<a0>.
@@ -140,6 +160,10 @@ pub fn markdown(
     if cases.iter().any(|c| c.plateau_prestress.is_some()) {
         r.push_str("\n## BPM plateaus and what sets them\n\nThe attraction holds a grain under the prestress σ_c; its frictionless contact network yields at the mobilised friction s, so with free sides the grain-mean vertical stress is 2 σ_c s/(1 − s) (README, \"the plateau level\"; σ = F/L, over the widest section, lies below it). The paper's σ_Y = F0/<a0> is the scale, not the level.\n\n");
         r.push_str(&plateaus(cases));
+    }
+    if cases.iter().any(|c| c.kind == "packing") {
+        r.push_str("\n## How far grains passed into each other, and the contact solver\n\nThe worst overlap is a particle pair's over the smallest particle diameter (BPM) or a contact node's point-cloud gap over the cell size (MPM). A particle or point whose centre lies inside another grain marks an overlap deeper than its radius or half-size (README, \"Measures\").\n\n");
+        r.push_str(&soundness(cases));
     }
     if cases.iter().any(|c| c.fit.is_some()) {
         r.push_str("\n## Fits of Eqs. 14 and 16 (Φ against x = σ/σ0 − 1, R² of Φ)\n\n");
@@ -196,6 +220,38 @@ mod tests {
         );
         assert!(md.contains("![Fig. 11](fig11.png)") && md.contains("Eq. 16, slope"));
         assert!(!md.contains("BPM plateaus"));
+    }
+
+    #[test]
+    fn each_packing_says_how_far_its_grains_passed_into_each_other() {
+        let packing = |case: &str, method: &str, overlap, inside, short| CaseSummary {
+            case: case.into(),
+            method: method.into(),
+            kind: "packing".into(),
+            overlap_max: Some(overlap),
+            points_inside_max: Some(inside),
+            unconverged_steps: Some(short),
+            ..Default::default()
+        };
+        let grain = CaseSummary {
+            case: "mpm".into(),
+            kind: "single_grain".into(),
+            ..Default::default()
+        };
+        let cases = [
+            packing("bpm-mu0", "bpm", 2e-4, 0.0, 0.0),
+            packing("mpm-mu0.5", "mpm", 1.25, 0.028, 3.0),
+            grain,
+        ];
+        let md = markdown("x", &paper(), &cases, &[], &[]);
+        assert!(md.contains("| bpm-mu0 | 2.000e-4 d_min | 0% | 0 |"), "{md}");
+        assert!(
+            md.contains("| mpm-mu0.5 | 1.2500 h_g | 2.8000% | 3 |"),
+            "{md}"
+        );
+        // single grains have no grain pairs: no row
+        assert_eq!(soundness(&cases).lines().count(), 4);
+        assert!(!markdown("x", &paper(), &cases[2..], &[], &[]).contains("passed into each other"));
     }
 
     #[test]

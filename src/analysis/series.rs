@@ -14,7 +14,9 @@ pub fn method_name(m: Method) -> &'static str {
     }
 }
 
-/// A packing's rows: `case, method, friction, time, strain, phi, z, z_star, sigma, inertial`.
+/// A packing's rows: `case, method, friction, time, strain, phi, z, z_star, sigma, inertial`,
+/// and how far grains passed into each other and how well each interval was solved:
+/// `overlap` (BPM: over d_min; MPM: over h_g), `points_inside`, `unconverged`.
 pub fn packing(case: &str, c: &PackingCompacted) -> PolarsResult<DataFrame> {
     let n = c.rows.len();
     let get = |f: fn(&crate::compaction::Row) -> f64| c.rows.iter().map(f).collect::<Vec<f64>>();
@@ -29,6 +31,9 @@ pub fn packing(case: &str, c: &PackingCompacted) -> PolarsResult<DataFrame> {
         "z_star" => get(|r| r.z_star),
         "sigma" => get(|r| r.sigma),
         "inertial" => get(|r| r.inertial),
+        "overlap" => get(|r| r.overlap),
+        "points_inside" => get(|r| r.points_inside),
+        "unconverged" => get(|r| r.unconverged as f64),
     )
 }
 

@@ -72,6 +72,15 @@ pub struct CaseSummary {
     /// ratio is set by the data above Φ0 and barely moves with σ0.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stress_scale: Option<f64>,
+    /// The worst interpenetration of the run (BPM: particle overlap over d_min; MPM: node
+    /// gap over h_g), the largest share of particles or points whose centre lay inside
+    /// another grain, and the steps whose contact forces stopped short of the tolerance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overlap_max: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_inside_max: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub unconverged_steps: Option<f64>,
     // ---- single grains ----
     /// dσ/dε through the origin on 0 < ε <= `analyse.small_strain` (Pa).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -141,6 +150,9 @@ pub fn packing(df: &DataFrame, a: &Analyse) -> PolarsResult<(CaseSummary, DataFr
     s.strain_final = measures::last(df, "strain")?;
     s.sigma_final = measures::end_mean(df, "strain", "sigma", a.final_window)?;
     s.phi_at_strain_045 = measures::crossing(df, "strain", "phi", 0.45)?;
+    s.overlap_max = measures::max(df, "overlap")?;
+    s.points_inside_max = measures::max(df, "points_inside")?;
+    s.unconverged_steps = measures::sum(df, "unconverged")?;
     if let Some(j) = measures::jamming(df, a.jamming_fraction)? {
         s.jamming_strain = Some(j.strain);
         s.jamming_phi = Some(j.phi);
@@ -273,9 +285,16 @@ mod tests {
             "case" => vec!["bpm-mu0"; n], "method" => vec!["bpm"; n], "friction" => vec![0.0; n],
             "strain" => strain, "phi" => phi, "z" => vec![4.0; n], "z_star" => vec![4.0; n],
             "sigma" => sigma,
+            "overlap" => (0..n).map(|k| k as f64 / 1e5).collect::<Vec<f64>>(),
+            "points_inside" => vec![0.0; n],
+            "unconverged" => (0..n).map(|k| f64::from(k % 30 == 0)).collect::<Vec<f64>>(),
         )
         .unwrap();
         let (s, out) = packing(&df, &Analyse::default()).unwrap();
+        // the worst overlap is the last row's, and rows 0, 30, 60 and 90 stopped short
+        assert_eq!(s.overlap_max, Some(9e-4));
+        assert_eq!(s.points_inside_max, Some(0.0));
+        assert_eq!(s.unconverged_steps, Some(4.0));
         assert!((s.sigma0.unwrap() - 1000.0).abs() < 1e-6, "{s:?}");
         assert!((s.strain_at_phi0.unwrap() - 0.2).abs() < 1e-9);
         assert!((s.alpha.unwrap() / 0.27 - 1.0).abs() < 1e-9);
