@@ -79,7 +79,7 @@
 //!     contact").
 //!   - Measured on the material (`super::overlap::points_inside`, session 30): with the
 //!     node contact 4-13 % of the points lie inside another grain under load (12.6 % of
-//!     100 grains at ε = 0.45), with the surface contact a point or two in a thousand.
+//!     100 grains at ε = 0.45), with the surface contact at most a few points in a thousand.
 //!   - Fixed: two defects that had made it far worse. The position law between grains
 //!     pumped energy (`super::node_contact`). The linear-elastic law saw no strain in a
 //!     linearised rotation, so rocking grains swelled by 15 % (`super::material`). The
