@@ -270,6 +270,22 @@ pub fn csv(rows: &[Row]) -> String {
 }
 
 impl PackingFigures {
+    /// Folds a recorded row into the run's worst figures, for both methods: `site` is where
+    /// the row's worst overlap was (its depth and strain are taken from the row), and
+    /// `area_ratio` the grains' area over their area at the start.
+    pub fn fold(&mut self, row: &Row, site: OverlapSite, area_ratio: f64) {
+        self.overlap_max = self.overlap_max.max(row.overlap);
+        self.overlap_site = self.overlap_site.deepest(OverlapSite {
+            overlap: row.overlap,
+            strain: row.strain,
+            ..site
+        });
+        self.overlap_area_max = self.overlap_area_max.max(row.overlap_area);
+        self.points_inside_max = self.points_inside_max.max(row.points_inside);
+        self.area_change = self.area_change.max((area_ratio - 1.0).abs());
+        self.residual_max = self.residual_max.max(row.residual);
+    }
+
     /// For a summary line: nothing when every step's contact solve converged.
     pub fn unconverged_note(&self) -> String {
         if self.unconverged_steps == 0 {

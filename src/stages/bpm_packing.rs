@@ -315,16 +315,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
         unconverged: st.solves_since.unconverged,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
-    let f = &mut st.figures;
-    f.overlap_max = f.overlap_max.max(row.overlap);
-    f.overlap_site = f.overlap_site.deepest(OverlapSite {
-        strain: row.strain,
-        ..site
-    });
-    f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
-    f.points_inside_max = f.points_inside_max.max(row.points_inside);
-    f.area_change = f.area_change.max((area / st.area0 - 1.0).abs());
-    f.residual_max = f.residual_max.max(row.residual);
+    st.figures.fold(&row, site, area / st.area0);
     st.rows.push(row);
     st.impulse = [V2::zeros(); 4];
     st.since_record = 0;

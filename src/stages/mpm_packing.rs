@@ -405,19 +405,10 @@ fn record(st: &mut Running, mu: f64) {
         unconverged: st.solves.unconverged,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
-    let f = &mut st.figures;
-    f.overlap_max = f.overlap_max.max(row.overlap);
-    f.overlap_site = f.overlap_site.deepest(OverlapSite {
-        overlap: row.overlap,
-        strain: row.strain,
-        ..st.deepest
-    });
-    f.overlap_area_max = f.overlap_area_max.max(row.overlap_area);
-    f.points_inside_max = f.points_inside_max.max(row.points_inside);
-    f.area_change = f.area_change.max((pk.grain_area() / st.area0 - 1.0).abs());
-    f.residual_max = f.residual_max.max(row.residual);
+    st.figures
+        .fold(&row, st.deepest, pk.grain_area() / st.area0);
     if st.touched_top {
-        f.kinetic_ratio_max = f.kinetic_ratio_max.max(row.kinetic_ratio);
+        st.figures.kinetic_ratio_max = st.figures.kinetic_ratio_max.max(row.kinetic_ratio);
     }
     st.rows.push(row);
     (st.forces, st.iterations, st.since, st.min_gap) = ([0.0; 4], 0, 0, 0.0);
