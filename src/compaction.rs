@@ -383,6 +383,10 @@ pub struct PackingFigures {
     pub kinetic_ratio_max: f64,
     /// Largest `Row::inertial` once loaded (`max_after_jamming`).
     pub inertial_max: f64,
+    /// MPM: sub-steps split in two before they were tried (`mpm::packing::rotation_ratio`)
+    /// and sub-steps redone as two halves after their coupling failed. BPM: 0.
+    pub splits: u64,
+    pub halvings: u64,
 }
 
 /// Grain coordination from the list of grain pairs in contact (each pair once, any order,

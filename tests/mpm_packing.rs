@@ -1,13 +1,15 @@
 //! Multi-grain MPM with node contact by contact dynamics (paper Eqs. 11-12, METHODS §4):
 //! two grains pressed together, three grains meeting at nodes, a free collision, mass, and
-//! the convergence of the coupling iteration.
+//! the convergence of the coupling iteration, and the step a pressurised grain can take.
 
 use nalgebra::Vector2;
 use softgrain::mpm::analytic::johnson_force;
+use softgrain::mpm::grid::Grid;
 use softgrain::mpm::material::{Material, MaterialKind};
 use softgrain::mpm::node_contact::{ContactKind, NlgsParams, Partner};
-use softgrain::mpm::packing::{Packing, PackingParams, StepReport, TOP};
-use softgrain::mpm::solve::SolverParams;
+use softgrain::mpm::packing::{Packing, PackingParams, StepReport, TOP, rotation_ratio};
+use softgrain::mpm::points::{Points, Stress};
+use softgrain::mpm::solve::{Solver, SolverParams};
 
 const R: f64 = 1e-3;
 const V: f64 = 0.2;
@@ -392,4 +394,64 @@ fn one_grain_in_the_packing_engine_gives_the_single_grain_driver_force() {
             row.force_top
         );
     }
+}
+
+/// A disk under uniform pressure p: `rotation_ratio` is `4 β Δt² p/(ρ R²)` (the pressure's
+/// `-∫ tr σ dA = 2 p π R²` over the inertia `ρ π R⁴/2`), and its step's consistent tangent
+/// turns indefinite where the rigid rotation's stiffness `∫ tr σ dA` beats its inertia:
+/// at a ratio of 1.03-1.04 (the nodes' inertia exceeds the points' by the B-spline's
+/// spread) while p ≤ E/20. At p = E/10 another mode goes first, at a ratio of 0.57
+/// (0.44 at E/5): the split at 1 does not make every step's tangent definite.
+#[test]
+fn a_pressurised_grain_s_tangent_turns_indefinite_past_the_rotation_ratio() {
+    let p = params(0.0);
+    let grid = Grid {
+        origin: Vector2::new(-2.0 * R, -2.0 * R),
+        h: p.cell,
+        nx: 21,
+        ny: 21,
+    };
+    let beta = p.solver.newmark.beta;
+    let consistent = |pressure: f64, ratio: f64| {
+        let mut pts = Points::seed_disk(&grid, Vector2::zeros(), R, p.material.density);
+        for s in pts.stress.iter_mut() {
+            *s = Stress {
+                xx: -pressure,
+                yy: -pressure,
+                xy: 0.0,
+                zz: -2.0 * p.material.poisson * pressure,
+            };
+        }
+        let per_dt2 = rotation_ratio(std::slice::from_ref(&pts), 1.0, beta);
+        let disk = 4.0 * beta * pressure / (p.material.density * R * R);
+        assert!(
+            (per_dt2 / disk - 1.0).abs() < 0.03,
+            "ratio per Δt² {per_dt2:.4e}, the disk's {disk:.4e}"
+        );
+        let dt = (ratio / per_dt2).sqrt();
+        let mut solver = Solver::default();
+        solver.begin(&p.solver, &grid, &pts, dt, 0).unwrap();
+        solver
+            .evaluate_residual(&p.solver, &p.material, &pts, dt, 0)
+            .unwrap();
+        solver.assemble_stiffness(&p.solver, &p.material, &pts, dt);
+        solver
+            .factorize(&p.solver, &p.material, &pts, dt, 0)
+            .unwrap()
+    };
+    let e = p.material.young;
+    for ratio in [0.5, 1.0] {
+        assert!(
+            consistent(e / 100.0, ratio),
+            "indefinite at {ratio}, p = E/100"
+        );
+    }
+    for ratio in [1.1, 2.0] {
+        assert!(
+            !consistent(e / 100.0, ratio),
+            "definite at {ratio}, p = E/100"
+        );
+    }
+    assert!(consistent(e / 10.0, 0.5), "indefinite at 0.5, p = E/10");
+    assert!(!consistent(e / 10.0, 0.6), "definite at 0.6, p = E/10");
 }

@@ -349,7 +349,7 @@ impl Solver {
 
     /// Factorises the stiffness of the last `assemble_stiffness`; if the consistent
     /// tangent is not positive definite, the initial elastic one is assembled and used
-    /// instead (modified Newton, as in `step`).
+    /// instead (modified Newton, as in `step`). Returns whether the consistent one was.
     pub fn factorize(
         &mut self,
         params: &SolverParams,
@@ -357,15 +357,16 @@ impl Solver {
         points: &Points,
         dt: f64,
         step: u64,
-    ) -> Result<(), MpmError> {
+    ) -> Result<bool, MpmError> {
         self.fixed.iter_mut().for_each(|f| *f = false);
-        if self.sys.factorize(&self.fixed).is_err() {
-            self.stiffness(points, material, params.newmark.mass_factor(dt), false);
-            self.sys
-                .factorize(&self.fixed)
-                .map_err(|reason| MpmError::LinearSolve { step, reason })?;
+        if self.sys.factorize(&self.fixed).is_ok() {
+            return Ok(true);
         }
-        Ok(())
+        self.stiffness(points, material, params.newmark.mass_factor(dt), false);
+        self.sys
+            .factorize(&self.fixed)
+            .map_err(|reason| MpmError::LinearSolve { step, reason })?;
+        Ok(false)
     }
 
     /// Solves `K X = B` in place for `cols` columns of length `2 × nodes().len()`.

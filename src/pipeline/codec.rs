@@ -24,8 +24,11 @@ use serde::de::DeserializeOwned;
 /// contact records keep where their forces act (`applied`). Version 16: a packing's figures
 /// say where its worst overlap was (`overlap_site`); version 17 the worst once loaded
 /// (`overlap_max_loaded`). Version 18: a packing's rows and figures record the share of
-/// particles or points whose centre lies inside another grain (`points_inside`).
-pub const FORMAT_VERSION: u32 = 18;
+/// particles or points whose centre lies inside another grain (`points_inside`). Version 19:
+/// an MPM packing splits a step before trying it when its inertia cannot hold the grains'
+/// rotations (`mpm::packing::rotation_ratio`), which changes its results, and its figures
+/// count the split and the halved sub-steps.
+pub const FORMAT_VERSION: u32 = 19;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

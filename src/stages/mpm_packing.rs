@@ -261,6 +261,8 @@ pub fn compact(
         st.solves.add(report.residual, kept_converged);
         f.unconverged_steps += u64::from(!kept_converged);
         f.stopped_solves += report.nlgs_unconverged as u64;
+        f.splits += report.splits;
+        f.halvings += report.halvings;
         st.touched_top |= walls[TOP].contacts > 0;
         let strain = st.pk.strain();
         bar.set((strain * 1e4) as u64, format!("ε = {strain:.3}"));
