@@ -218,7 +218,7 @@ fn from_a_dense_start_a_bpm_packing_shows_the_papers_trends_past_jamming() {
         let f = &c.figures;
         assert_eq!(s.overlap_max, Some(f.overlap_max));
         assert_eq!(s.points_inside_max, Some(f.points_inside_max));
-        assert_eq!(s.unconverged_steps, Some(f.unconverged_steps as f64));
+        assert_eq!(s.unconverged_steps, Some(f.unconverged_steps));
         s.stress_scale.unwrap()
     };
     let (s0, s5) = (scale(&smooth, "bpm-mu0"), scale(&rough, "bpm-mu0.5"));

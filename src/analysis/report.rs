@@ -103,8 +103,7 @@ fn soundness(cases: &[CaseSummary]) -> String {
             c.case,
             c.overlap_max.map_or("—".into(), num),
             c.points_inside_max.map_or("—".into(), |v| num(100.0 * v)),
-            c.unconverged_steps
-                .map_or("—".into(), |v| format!("{v:.0}"))
+            c.unconverged_steps.map_or("—".into(), |v| v.to_string())
         );
     }
     t
@@ -239,8 +238,8 @@ mod tests {
             ..Default::default()
         };
         let cases = [
-            packing("bpm-mu0", "bpm", 2e-4, 0.0, 0.0),
-            packing("mpm-mu0.5", "mpm", 1.25, 0.028, 3.0),
+            packing("bpm-mu0", "bpm", 2e-4, 0.0, 0),
+            packing("mpm-mu0.5", "mpm", 1.25, 0.028, 3),
             grain,
         ];
         let md = markdown("x", &paper(), &cases, &[], &[]);

@@ -80,7 +80,7 @@ pub struct CaseSummary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_inside_max: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub unconverged_steps: Option<f64>,
+    pub unconverged_steps: Option<u64>,
     // ---- single grains ----
     /// dσ/dε through the origin on 0 < ε <= `analyse.small_strain` (Pa).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -152,7 +152,8 @@ pub fn packing(df: &DataFrame, a: &Analyse) -> PolarsResult<(CaseSummary, DataFr
     s.phi_at_strain_045 = measures::crossing(df, "strain", "phi", 0.45)?;
     s.overlap_max = measures::max(df, "overlap")?;
     s.points_inside_max = measures::max(df, "points_inside")?;
-    s.unconverged_steps = measures::sum(df, "unconverged")?;
+    // a count: the rows' counts summed (polars sums them as floats)
+    s.unconverged_steps = measures::sum(df, "unconverged")?.map(|n| n.round() as u64);
     if let Some(j) = measures::jamming(df, a.jamming_fraction)? {
         s.jamming_strain = Some(j.strain);
         s.jamming_phi = Some(j.phi);
@@ -294,7 +295,7 @@ mod tests {
         // the worst overlap is the last row's, and rows 0, 30, 60 and 90 stopped short
         assert_eq!(s.overlap_max, Some(9e-4));
         assert_eq!(s.points_inside_max, Some(0.0));
-        assert_eq!(s.unconverged_steps, Some(4.0));
+        assert_eq!(s.unconverged_steps, Some(4));
         assert!((s.sigma0.unwrap() - 1000.0).abs() < 1e-6, "{s:?}");
         assert!((s.strain_at_phi0.unwrap() - 0.2).abs() < 1e-9);
         assert!((s.alpha.unwrap() / 0.27 - 1.0).abs() < 1e-9);

@@ -18,8 +18,9 @@ use std::path::Path;
 /// bumping it redoes cached analyses (cheap) without recomputing what they read, as bumping
 /// `FORMAT_VERSION` would. Version 2 adds the fits' stress scale; 3 the final σ over a
 /// window (`analyse.final_window`); 4 the packings' worst overlap, points inside another
-/// grain and unconverged steps (`summary::CaseSummary::overlap_max` and the report's table).
-pub const ANALYSIS_VERSION: u32 = 4;
+/// grain and unconverged steps (`summary::CaseSummary::overlap_max` and the report's table);
+/// 5 writes the unconverged steps as a count (an integer) in `summary.json`.
+pub const ANALYSIS_VERSION: u32 = 5;
 
 /// The checkpoint payload: the summary (as `summary.json` holds it) and the files written.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
