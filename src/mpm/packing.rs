@@ -23,7 +23,10 @@
 //! staggered scheme A, whose contraction `ρ = (ωΔt/2)²/(1+(ωΔt/2)²)` is close to 1 at
 //! these steps (`ωΔt ≈ 30`).
 //!
-//! A step whose iteration fails is redone as two half steps (at most `MAX_HALVINGS`).
+//! A step whose iteration fails is redone as two half steps, and a step whose inertia cannot
+//! hold the grains' rigid rotations against their pressure (`rotation_ratio` above
+//! `ROTATION_LIMIT`: the tangent is then indefinite and the coupling stalls) is split in
+//! two before it is tried; both at most `MAX_HALVINGS` levels deep.
 //!
 //! # Decisions the paper leaves open (METHODS §7.3, §7.5)
 //! * **Coupling**: the condensed-Delassus scheme B above, not the staggered scheme A.
