@@ -403,7 +403,7 @@ fn one_grain_in_the_packing_engine_gives_the_single_grain_driver_force() {
 /// spread) while p ≤ E/20. At p = E/10 another mode goes first, at a ratio of 0.57
 /// (0.44 at E/5): the split at 1 does not make every step's tangent definite.
 #[test]
-fn a_pressurised_grain_s_tangent_turns_indefinite_past_the_rotation_ratio() {
+fn a_pressurised_grains_tangent_turns_indefinite_past_the_rotation_ratio() {
     let p = params(0.0);
     let grid = Grid {
         origin: Vector2::new(-2.0 * R, -2.0 * R),
