@@ -399,7 +399,7 @@ fn one_grain_in_the_packing_engine_gives_the_single_grain_driver_force() {
 /// A disk under uniform pressure p: `rotation_ratio` is `4 β Δt² p/(ρ R²)` (the pressure's
 /// `-∫ tr σ dA = 2 p π R²` over the inertia `ρ π R⁴/2`), and its step's consistent tangent
 /// turns indefinite where the rigid rotation's stiffness `∫ tr σ dA` beats its inertia:
-/// at a ratio of 1.03-1.04 (the nodes' inertia exceeds the points' by the B-spline's
+/// at a ratio of 1.01-1.04 (the nodes' inertia exceeds the points' by the B-spline's
 /// spread) while p ≤ E/20. At p = E/10 another mode goes first, at a ratio of 0.57
 /// (0.44 at E/5): the split at 1 does not make every step's tangent definite.
 #[test]

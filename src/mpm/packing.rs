@@ -132,7 +132,7 @@ pub const ROTATION_LIMIT: f64 = 1.0;
 /// points, stress rotated: `f_i → Q f_i`). The consistent tangent therefore gives the rigid
 /// rotation `u_i = θ J x_i` the stiffness `θ² Σ_i x_i·f_i = θ² ∫ tr σ dA`, negative under
 /// pressure, and only the inertia term `θ² J/(βΔt²)` holds it: above a ratio of about 1
-/// the step's tangent is indefinite (1.03-1.04 on a disk while p ≤ E/20; at E/10 another
+/// the step's tangent is indefinite (1.01-1.04 on a disk while p ≤ E/20; at E/10 another
 /// mode goes first, at 0.57: `tests/mpm_packing.rs`). Cholesky then falls back to the
 /// elastic tangent (`Solver::factorize`) and the coupling can stall. Measured on 100 grains
 /// (surface contact, μ = 0) at ε = 0.35: ratio 3.9-4.1, 95 of the 100 tangents indefinite,
