@@ -102,7 +102,7 @@ pub struct Row {
     pub grain_contacts: usize,
     pub rattlers: usize,
     /// Mean solver iterations per step over the interval (NLGS sweeps, or contact-coupling
-    /// iterations for MPM).
+    /// iterations for MPM, failed attempts included).
     pub iterations: f64,
     /// Kinetic energy over a reference energy (quasi-static: ≪ 1). BPM: the work the walls
     /// have done since ε = 0 (NaN before they have done any); MPM: the grains' elastic
@@ -351,7 +351,8 @@ pub struct ForceLine {
 pub struct PackingFigures {
     pub steps: u64,
     pub time_step: f64,
-    /// Mean and largest solver iterations per step.
+    /// Mean and largest solver iterations per step (MPM: failed attempts included, so a
+    /// halved step counts its failed attempt's iterations too).
     pub iterations_mean: f64,
     pub iterations_max: u64,
     /// Steps whose kept contact solve stopped short of its tolerance (`SolveTally`).
@@ -359,7 +360,7 @@ pub struct PackingFigures {
     /// The largest `Row::residual` of the run.
     pub residual_max: f64,
     /// Contact solves stopped short of the tolerance: BPM, the unconverged steps; MPM, also
-    /// those of a step's earlier coupling iterations.
+    /// those of a step's earlier coupling iterations and of failed attempts.
     pub stopped_solves: u64,
     /// Largest `Row::overlap` of the run ...
     pub overlap_max: f64,
@@ -383,10 +384,17 @@ pub struct PackingFigures {
     pub kinetic_ratio_max: f64,
     /// Largest `Row::inertial` once loaded (`max_after_jamming`).
     pub inertial_max: f64,
-    /// MPM: sub-steps split in two before they were tried (`mpm::packing::rotation_ratio`)
-    /// and sub-steps redone as two halves after their coupling failed. BPM: 0.
+    /// MPM: sub-steps split in two before they were tried (`mpm::packing::rotation_ratio`).
+    /// BPM: 0.
     pub splits: u64,
+    /// MPM: sub-steps redone as two halves after a failed attempt (coupling not converged,
+    /// a point inverted, a factorisation failed). BPM: 0.
     pub halvings: u64,
+    /// MPM: grain factorisations of the run (failed attempts included), and those whose
+    /// consistent tangent was indefinite, so that the elastic one was factorised instead
+    /// (modified Newton for that grain). BPM: 0.
+    pub factorisations: u64,
+    pub indefinite: u64,
 }
 
 /// Grain coordination from the list of grain pairs in contact (each pair once, any order,

@@ -152,7 +152,7 @@ pub fn packing(df: &DataFrame, a: &Analyse) -> PolarsResult<(CaseSummary, DataFr
     s.phi_at_strain_045 = measures::crossing(df, "strain", "phi", 0.45)?;
     s.overlap_max = measures::max(df, "overlap")?;
     s.points_inside_max = measures::max(df, "points_inside")?;
-    // a count: the rows' counts summed (polars sums them as floats)
+    // a count: the rows' counts summed (the frame holds them as f64, `series::packing`)
     s.unconverged_steps = measures::sum(df, "unconverged")?.map(|n| n.round() as u64);
     if let Some(j) = measures::jamming(df, a.jamming_fraction)? {
         s.jamming_strain = Some(j.strain);

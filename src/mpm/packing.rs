@@ -117,7 +117,9 @@ use nalgebra::{Matrix2, Vector2};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// Most halvings of a step, split before it is tried or after it failed.
+/// Most levels of halving of a step (the smallest sub-step is `Δt/2^MAX_HALVINGS`). Splits
+/// before a try and halvings after a failure share them: a step split twice for its
+/// rotation ratio can be halved once more after a failure.
 pub const MAX_HALVINGS: u32 = 3;
 
 /// Largest `rotation_ratio` a step is tried with; above it the step is split in two first.
@@ -130,11 +132,12 @@ pub const ROTATION_LIMIT: f64 = 1.0;
 /// Within a step the contacts keep their normals and act on fixed slots, while a grain
 /// turned by θ turns its internal forces with it (stencils frozen at the start-of-step
 /// points, stress rotated: `f_i → Q f_i`). The consistent tangent therefore gives the rigid
-/// rotation `u_i = θ J x_i` the stiffness `θ² Σ_i x_i·f_i = θ² ∫ tr σ dA`, negative under
+/// rotation `u_i = θ x_i^⊥` (`x_i` turned by 90°) the stiffness `θ² Σ_i x_i·f_i = θ² ∫ tr σ dA`, negative under
 /// pressure, and only the inertia term `θ² J/(βΔt²)` holds it: above a ratio of about 1
 /// the step's tangent is indefinite (1.01-1.04 on a disk while p ≤ E/20; at E/10 another
 /// mode goes first, at 0.57: `tests/mpm_packing.rs`). Cholesky then falls back to the
-/// elastic tangent (`Solver::factorize`) and the coupling can stall. Measured on 100 grains
+/// elastic tangent (`Solver::factorize`, counted in `StepReport::indefinite`) and the
+/// coupling can stall. Measured on 100 grains
 /// (surface contact, μ = 0) at ε = 0.35: ratio 3.9-4.1, 95 of the 100 tangents indefinite,
 /// the coupling cycling between two states at a residual of 5e-3 until the 40-iteration
 /// cap, then the step redone as two halves (ratio 1.0, 8 indefinite) in about 10
@@ -147,14 +150,13 @@ pub fn rotation_ratio(grains: &[Points], dt: f64, beta: f64) -> f64 {
     grains
         .iter()
         .map(|pts| {
-            let mass: f64 = pts.mass.iter().sum();
             let centre = pts
                 .x
                 .iter()
                 .zip(&pts.mass)
                 .map(|(x, m)| x * *m)
                 .sum::<Vector2<f64>>()
-                / mass;
+                / pts.total_mass();
             let inertia: f64 = pts
                 .x
                 .iter()
@@ -199,7 +201,8 @@ pub struct PackingParams {
 pub struct StepReport {
     /// Coupling (Newton) iterations, summed over sub-steps, failed attempts included.
     pub iterations: usize,
-    /// Factorisations over all grains.
+    /// Factorisations over all grains, and NLGS sweeps; both, like `nlgs_unconverged`,
+    /// include failed attempts.
     pub factorisations: usize,
     pub sweeps: usize,
     /// NLGS solves, over all coupling iterations and sub-steps, stopped by the stall window
@@ -211,10 +214,14 @@ pub struct StepReport {
     pub residual: f64,
     /// Sub-steps whose last NLGS solve stopped short of its tolerance.
     pub kept_unconverged: usize,
-    /// Sub-steps redone as two halves after their coupling failed.
+    /// Sub-steps redone as two halves after a failed attempt (coupling not converged, a
+    /// point inverted, a factorisation failed).
     pub halvings: u64,
     /// Sub-steps split in two before they were tried (`rotation_ratio`).
     pub splits: u64,
+    /// Of `factorisations`, those whose consistent tangent was indefinite, so that the
+    /// elastic one was factorised instead (`Solver::factorize`).
+    pub indefinite: usize,
     /// Node contacts carrying a force at the end of the step.
     pub active: usize,
     /// Most negative point-cloud gap between two grains at a contact node (m, <= 0), that
@@ -504,7 +511,9 @@ impl Packing {
             .sum()
     }
 
-    /// Advances one time step (halving it on a failed solve).
+    /// Advances one time step: split in two before it is tried while `rotation_ratio`
+    /// exceeds `ROTATION_LIMIT`, halved after a failed attempt, both within `MAX_HALVINGS`
+    /// levels (the smallest sub-step is `Δt/8`).
     pub fn step(&mut self) -> Result<StepReport, MpmError> {
         let step = self.steps;
         let mut report = StepReport::default();
@@ -694,11 +703,12 @@ impl Packing {
                 .par_iter_mut()
                 .zip(ws.slots.par_iter_mut())
                 .zip(grains.par_iter())
-                .map(|((w, s), pts)| -> Result<usize, MpmError> {
+                .map(|((w, s), pts)| -> Result<(usize, usize), MpmError> {
                     grain_free(w, s, pts, p, dt, step, tol)
                 })
-                .collect::<Result<Vec<usize>, MpmError>>()?;
-            report.factorisations += factorisations.iter().sum::<usize>();
+                .collect::<Result<Vec<(usize, usize)>, MpmError>>()?;
+            report.factorisations += factorisations.iter().map(|f| f.0).sum::<usize>();
+            report.indefinite += factorisations.iter().map(|f| f.1).sum::<usize>();
             nc::load_slots(&ws.contacts, &mut ws.slots);
             let solve = nc::nlgs(
                 &mut ws.contacts,
@@ -835,7 +845,7 @@ impl Packing {
 
 /// Factorises grain `w` if it needs it, then sets its slots' free displacement
 /// `u_c + [K^{-1} R]_c` and (after a factorisation) its compliance. Returns the number of
-/// factorisations (0 or 1).
+/// factorisations (0 or 1) and of those whose consistent tangent was indefinite.
 fn grain_free(
     w: &mut GrainWork,
     s: &mut Slots,
@@ -844,16 +854,17 @@ fn grain_free(
     dt: f64,
     step: u64,
     tol: f64,
-) -> Result<usize, MpmError> {
+) -> Result<(usize, usize), MpmError> {
     let converged = w.rel <= tol;
     w.updating = !(converged && s.is_empty());
     if !w.updating {
-        return Ok(0);
+        return Ok((0, 0));
     }
     let mut new = 0;
+    let mut indefinite = 0;
     if !(converged && w.factored) {
         w.solver.assemble_stiffness(&p.solver, &p.material, pts, dt);
-        w.solver.factorize(&p.solver, &p.material, pts, dt, step)?;
+        indefinite = usize::from(!w.solver.factorize(&p.solver, &p.material, pts, dt, step)?);
         w.factored = true;
         new = 1;
     }
@@ -886,7 +897,7 @@ fn grain_free(
                 .project(&cols[col * n..(col + 1) * n], &mut s.compliance);
         }
     }
-    Ok(new)
+    Ok((new, indefinite))
 }
 
 /// Bounding box of the points' centres.

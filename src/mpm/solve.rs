@@ -349,7 +349,8 @@ impl Solver {
 
     /// Factorises the stiffness of the last `assemble_stiffness`; if the consistent
     /// tangent is not positive definite, the initial elastic one is assembled and used
-    /// instead (modified Newton, as in `step`). Returns whether the consistent one was.
+    /// instead (modified Newton, as in `step`). Returns true if the consistent tangent was
+    /// positive definite and factorised, false if the elastic one was factorised instead.
     pub fn factorize(
         &mut self,
         params: &SolverParams,

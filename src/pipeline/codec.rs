@@ -27,8 +27,9 @@ use serde::de::DeserializeOwned;
 /// particles or points whose centre lies inside another grain (`points_inside`). Version 19:
 /// an MPM packing splits a step before trying it when its inertia cannot hold the grains'
 /// rotations (`mpm::packing::rotation_ratio`), which changes its results, and its figures
-/// count the split and the halved sub-steps.
-pub const FORMAT_VERSION: u32 = 19;
+/// count the split and the halved sub-steps. Version 20: they count the grains'
+/// factorisations and those whose consistent tangent was indefinite.
+pub const FORMAT_VERSION: u32 = 20;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())
