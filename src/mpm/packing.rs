@@ -460,6 +460,11 @@ impl Packing {
         self.grains.iter().map(Points::total_mass).sum()
     }
 
+    /// Material points over every grain.
+    pub fn point_count(&self) -> usize {
+        self.grains.iter().map(Points::len).sum()
+    }
+
     pub fn momentum(&self) -> Vector2<f64> {
         self.grains.iter().map(Points::momentum).sum()
     }

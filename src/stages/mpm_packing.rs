@@ -24,7 +24,6 @@ use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use crate::mpm::overlap;
 use crate::mpm::packing::{Packing, PackingParams, TOP};
-use crate::mpm::points::Points;
 use crate::mpm::shape::ShapeKind;
 use crate::mpm::solve::SolverParams;
 use crate::pipeline::StageCtx;
@@ -95,7 +94,7 @@ pub fn discretise(m: &Mpm, prep: &Prepared) -> Result<(MpmPackingGrains, String)
         .map(|(p, r)| p.y + r)
         .fold(0.0, f64::max);
     let probe = packing(&g, &params(&g, 0.0, 0.0, 0.0, 1.0, None), &g.centres, top)?;
-    g.points = probe.grains.iter().map(Points::len).sum();
+    g.points = probe.point_count();
     let summary = format!(
         "{n} grains, {} material points, h_g = {:.3e} m (Δr/R = {} of the mean radius)",
         g.points, g.cell, g.resolution
@@ -308,7 +307,7 @@ pub fn compact(
     let summary = format!(
         "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
         st.pk.grains.len(),
-        st.pk.grains.iter().map(Points::len).sum::<usize>(),
+        st.pk.point_count(),
         steps,
         st.pk.dt,
         f.iterations_mean,
@@ -400,8 +399,7 @@ fn record(st: &mut Running, mu: f64) {
         kinetic_ratio: ke / (pk.elastic_energy() + 1e-30),
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
         overlap_area: overlap::shared_area(&pk.grains),
-        points_inside: overlap::points_inside(&pk.grains) as f64
-            / pk.grains.iter().map(Points::len).sum::<usize>() as f64,
+        points_inside: overlap::points_inside(&pk.grains) as f64 / pk.point_count() as f64,
         inertial: f64::NAN,
         sigma_box: st.stress / n,
         sigma_lever: st.lever / n,
