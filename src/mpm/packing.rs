@@ -132,20 +132,19 @@ pub const ROTATION_LIMIT: f64 = 1.0;
 /// Within a step the contacts keep their normals and act on fixed slots, while a grain
 /// turned by θ turns its internal forces with it (stencils frozen at the start-of-step
 /// points, stress rotated: `f_i → Q f_i`). The consistent tangent therefore gives the rigid
-/// rotation `u_i = θ x_i^⊥` (`x_i` turned by 90°) the stiffness `θ² Σ_i x_i·f_i = θ² ∫ tr σ dA`, negative under
-/// pressure, and only the inertia term `θ² J/(βΔt²)` holds it: above a ratio of about 1
-/// the step's tangent is indefinite (1.01-1.04 on a disk while p ≤ E/20; at E/10 another
-/// mode goes first, at 0.57: `tests/mpm_packing.rs`). Cholesky then falls back to the
-/// elastic tangent (`Solver::factorize`, counted in `StepReport::indefinite`) and the
-/// coupling can stall. Measured on 100 grains
-/// (surface contact, μ = 0) at ε = 0.35: ratio 3.9-4.1, 95 of the 100 tangents indefinite,
-/// the coupling cycling between two states at a residual of 5e-3 until the 40-iteration
-/// cap, then the step redone as two halves (ratio 1.0, 8 indefinite) in about 10
-/// iterations each. Splitting first spares the failed attempt: the whole run to ε = 0.45
-/// took 519 s instead of 1,316 s (limits of 0.5 and 2 gave the same time as 1 over 50
-/// steps from ε = 0.35). With the node contact the grains' pressure stays ten times lower
-/// (σ 0.11 against 1.24 MPa at ε = 0.45, the grains passing into each other) and no step
-/// is split.
+/// rotation `u_i = θ x_i^⊥` (`x_i` turned by 90°) the stiffness
+/// `θ² Σ_i x_i·f_i = θ² ∫ tr σ dA`, negative under pressure, and only the inertia term
+/// `θ² J/(βΔt²)` holds it: above a ratio of about 1 the step's tangent is indefinite (1.01-1.04 on a disk while p ≤ E/20;
+/// at E/10 another mode goes first, at 0.57: `tests/mpm_packing.rs`). Cholesky then falls
+/// back to the elastic tangent (`Solver::factorize`, counted in `StepReport::indefinite`)
+/// and the coupling can stall. Measured on 100 grains (surface contact, μ = 0) at ε = 0.35:
+/// ratio 3.9-4.1, 95 of the 100 tangents indefinite, the coupling cycling between two
+/// states at a residual of 5e-3 until the 40-iteration cap, then the step redone as two
+/// halves (ratio 1.0, 8 indefinite) in about 10 iterations each. Splitting first spares the
+/// failed attempt: the whole run to ε = 0.45 took 519 s instead of 1,316 s (limits of 0.5
+/// and 2 gave the same time as 1 over 50 steps from ε = 0.35). With the node contact the
+/// grains' pressure stays ten times lower (σ 0.11 against 1.24 MPa at ε = 0.45, the grains
+/// passing into each other) and no step is split.
 pub fn rotation_ratio(grains: &[Points], dt: f64, beta: f64) -> f64 {
     grains
         .iter()
