@@ -134,10 +134,10 @@ pub const ROTATION_LIMIT: f64 = 1.0;
 /// points, stress rotated: `f_i → Q f_i`). The consistent tangent therefore gives the rigid
 /// rotation `u_i = θ x_i^⊥` (`x_i` turned by 90°) the stiffness
 /// `θ² Σ_i x_i·f_i = θ² ∫ tr σ dA`, negative under pressure, and only the inertia term
-/// `θ² J/(βΔt²)` holds it: above a ratio of about 1 the step's tangent is indefinite (1.01-1.04 on a disk while p ≤ E/20;
-/// at E/10 another mode goes first, at 0.57: `tests/mpm_packing.rs`). Cholesky then falls
-/// back to the elastic tangent (`Solver::factorize`, counted in `StepReport::indefinite`)
-/// and the coupling can stall. Measured on 100 grains (surface contact, μ = 0) at ε = 0.35:
+/// `θ² J/(βΔt²)` holds it: above a ratio of about 1 the step's tangent is indefinite
+/// (1.01-1.04 on a disk while p ≤ E/20; at E/10 another mode goes first, at 0.57:
+/// `tests/mpm_packing.rs`). Cholesky then falls back to the elastic tangent
+/// (`Solver::factorize`, counted in `StepReport::indefinite`) and the coupling can stall. Measured on 100 grains (surface contact, μ = 0) at ε = 0.35:
 /// ratio 3.9-4.1, 95 of the 100 tangents indefinite, the coupling cycling between two
 /// states at a residual of 5e-3 until the 40-iteration cap, then the step redone as two
 /// halves (ratio 1.0, 8 indefinite) in about 10 iterations each. Splitting first spares the
