@@ -399,14 +399,6 @@ fn one_grain_in_the_packing_engine_gives_the_single_grain_driver_force() {
     }
 }
 
-/// A disk of radius R centred at the origin of `grid`'s coordinates, its points under a
-/// uniform pressure.
-fn pressurised_disk(p: &PackingParams, grid: &Grid, pressure: f64) -> Points {
-    let mut pts = Points::seed_disk(grid, Vector2::zeros(), R, p.material.density);
-    pressurise(&mut pts, pressure, p.material.poisson);
-    pts
-}
-
 /// Sets every point's stress to the plane-strain state of a uniform pressure.
 fn pressurise(pts: &mut Points, pressure: f64, poisson: f64) {
     for s in pts.stress.iter_mut() {
@@ -437,7 +429,8 @@ fn a_pressurised_grains_tangent_turns_indefinite_past_the_rotation_ratio() {
     };
     let beta = p.solver.newmark.beta;
     let definite = |pressure: f64, ratio: f64| {
-        let pts = pressurised_disk(&p, &grid, pressure);
+        let mut pts = Points::seed_disk(&grid, Vector2::zeros(), R, p.material.density);
+        pressurise(&mut pts, pressure, p.material.poisson);
         let per_dt2 = rotation_ratio(std::slice::from_ref(&pts), 1.0, beta);
         let disk = 4.0 * beta * pressure / (p.material.density * R * R);
         assert!(

@@ -702,17 +702,21 @@ impl Packing {
                 break;
             }
             // Free increments and compliances.
-            let factorisations = ws
+            let (factorised, indefinite) = ws
                 .grains
                 .par_iter_mut()
                 .zip(ws.slots.par_iter_mut())
                 .zip(grains.par_iter())
                 .map(|((w, s), pts)| -> Result<(usize, usize), MpmError> {
-                    grain_free(w, s, pts, p, dt, step, tol)
+                    let consistent = grain_free(w, s, pts, p, dt, step, tol)?;
+                    Ok((
+                        usize::from(consistent.is_some()),
+                        usize::from(consistent == Some(false)),
+                    ))
                 })
-                .collect::<Result<Vec<(usize, usize)>, MpmError>>()?;
-            report.factorisations += factorisations.iter().map(|f| f.0).sum::<usize>();
-            report.indefinite += factorisations.iter().map(|f| f.1).sum::<usize>();
+                .try_reduce(|| (0, 0), |a, b| Ok((a.0 + b.0, a.1 + b.1)))?;
+            report.factorisations += factorised;
+            report.indefinite += indefinite;
             nc::load_slots(&ws.contacts, &mut ws.slots);
             let solve = nc::nlgs(
                 &mut ws.contacts,
@@ -848,8 +852,9 @@ impl Packing {
 }
 
 /// Factorises grain `w` if it needs it, then sets its slots' free displacement
-/// `u_c + [K^{-1} R]_c` and (after a factorisation) its compliance. Returns the number of
-/// factorisations (0 or 1) and of those whose consistent tangent was indefinite.
+/// `u_c + [K^{-1} R]_c` and (after a factorisation) its compliance. Returns `None` when the
+/// grain kept its factorisation, otherwise whether the consistent tangent was the one
+/// factorised (`Solver::factorize`).
 fn grain_free(
     w: &mut GrainWork,
     s: &mut Slots,
@@ -858,19 +863,17 @@ fn grain_free(
     dt: f64,
     step: u64,
     tol: f64,
-) -> Result<(usize, usize), MpmError> {
+) -> Result<Option<bool>, MpmError> {
     let converged = w.rel <= tol;
     w.updating = !(converged && s.is_empty());
     if !w.updating {
-        return Ok((0, 0));
+        return Ok(None);
     }
-    let mut new = 0;
-    let mut indefinite = 0;
+    let mut consistent = None;
     if !(converged && w.factored) {
         w.solver.assemble_stiffness(&p.solver, &p.material, pts, dt);
-        indefinite = usize::from(!w.solver.factorize(&p.solver, &p.material, pts, dt, step)?);
+        consistent = Some(w.solver.factorize(&p.solver, &p.material, pts, dt, step)?);
         w.factored = true;
-        new = 1;
     }
     let n = w.solver.residual_vector().len();
     let mut rhs = std::mem::take(&mut w.rhs);
@@ -884,7 +887,7 @@ fn grain_free(
     s.disp.clear();
     s.patterns.project(&rhs, &mut s.disp);
     w.rhs = rhs;
-    if new == 1 && !s.is_empty() {
+    if consistent.is_some() && !s.is_empty() {
         // unit loads along each slot's pattern, then their displacements projected back
         let m = 2 * s.len();
         let mut cols = vec![0.0; n * m];
@@ -901,7 +904,7 @@ fn grain_free(
                 .project(&cols[col * n..(col + 1) * n], &mut s.compliance);
         }
     }
-    Ok((new, indefinite))
+    Ok(consistent)
 }
 
 /// Bounding box of the points' centres.
