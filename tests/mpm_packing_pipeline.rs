@@ -167,9 +167,9 @@ fn a_frictionless_mpm_packing_keeps_its_grain_area() {
 }
 
 #[test]
-#[ignore = "known failure: with the node contact 2.8% of the points lie inside another grain by ε = 0.3 (surface contact 0.04-0.34% over four seeds; src/mpm/packing.rs, open problem)"]
+#[ignore = "known failure: with the default surface contact 0.04-0.34% of the points lie inside another grain by ε = 0.3 over four seeds (node contact 2.8-8.3%; README, MPM packings)"]
 fn a_small_mpm_packing_keeps_its_grains_apart() {
-    let (c, dir) = small_packing("mpm-packing-overlap", 0.5);
+    let (c, dir) = small_packing_with("mpm-packing-overlap", 0.5, "discretise.mpm.contact=surface");
     // no interpenetration beyond a point's half-size, as for two grains: no point's centre
     // inside another grain
     assert!(

@@ -328,11 +328,11 @@ pub struct Mpm {
     /// B-bar against volumetric locking.
     #[serde(default = "yes")]
     pub bbar: bool,
-    /// Where contacts between grains act in packings: `node` (the paper's Eqs. 11-12,
-    /// default) or `surface` (on the two grains' surface layers at each contact node instead
-    /// of the node: overlaps that shrink with the grid instead of a fixed length, at about
-    /// twice the cost; README, "MPM packings").
-    #[serde(default)]
+    /// Where contacts between grains act in packings: `surface` (default: on the two
+    /// grains' surface layers at each contact node, which keeps the grains apart) or `node`
+    /// (at the node, the paper's Eqs. 11-12, through which grains pass under load; README,
+    /// "MPM packings").
+    #[serde(default = "contact")]
     pub contact: ContactKind,
 }
 
@@ -362,6 +362,9 @@ fn model() -> Model {
 fn yes() -> bool {
     true
 }
+fn contact() -> ContactKind {
+    d::MPM_CONTACT
+}
 
 /// Compression by a moving top wall.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -388,7 +391,7 @@ pub struct Compact {
     pub initial_phi: f64,
     /// Contact-dynamics settings of this stage only, each key over `solver`'s: e.g.
     /// `{anderson: 8}` accelerates the compaction and leaves the deposit and the
-    /// discretisation (and their checkpoints) as they are. BPM only: the MPM node contact
+    /// discretisation (and their checkpoints) as they are. BPM only: the MPM grain contact
     /// has its own solver.
     #[serde(default)]
     pub solver: Option<SolverOverride>,

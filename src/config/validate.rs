@@ -61,7 +61,7 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
             fail(
                 "compact.solver",
                 methods.unwrap_or_default(),
-                "applies to BPM compactions only (discretise.method has no bpm; the MPM node contact has its own solver)",
+                "applies to BPM compactions only (discretise.method has no bpm; the MPM grain contact has its own solver)",
             )?;
         }
         solver(&p.compact_solver(), "compact.solver")?;

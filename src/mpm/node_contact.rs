@@ -251,11 +251,10 @@ impl Slots {
 }
 
 /// Where grain-pair contacts act (walls always act at nodes).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ContactKind {
     /// At the contact node (the paper's Eqs. 11–12).
-    #[default]
     Node,
     /// Instead of the node, on the two grains' surface layers there (the same candidate
     /// nodes, normals, gaps and law): the points within `SURFACE_LAYER` of the
@@ -264,7 +263,8 @@ pub enum ContactKind {
     /// weights, so that force and gap are work-conjugate. A node force moves the node, not
     /// the points that set the gap (`bench/README-packings.md`, "Why held nodes do not
     /// hold the points"). Until session 26 the node contact stayed beside it: the same
-    /// overlap and σ within 3% on 12 grains, at 1.6-2.2 times the time (README).
+    /// overlap and σ within 3% on 12 grains, at 1.6-2.2 times the time (README). The
+    /// default since session 33 (`config::defaults::MPM_CONTACT`).
     Surface,
 }
 

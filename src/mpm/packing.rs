@@ -40,8 +40,8 @@
 //!   `h_g = 2 Δr` with `Δr = resolution × mean grain radius` (the packing's grid is not
 //!   given); every grain is seeded 2×2 per cell on the same lattice and its point areas
 //!   rescaled to `π R²` (as for the single grain).
-//! * **Where contacts act**: at nodes (the paper's), or on the surface layers there
-//!   (`ContactKind`, key `discretise.mpm.contact`).
+//! * **Where contacts act**: on the surface layers at the contact nodes (the default), or
+//!   at the nodes (the paper's) (`ContactKind`, key `discretise.mpm.contact`).
 //! * **Contact nodes, normal, gap, law**: see `super::node_contact` (nodes where two grains
 //!   have non-light mass, one contact per pair; mass-gradient normals; point-cloud gap in a
 //!   strip of one cell; the paper's velocity Signorini and Coulomb with restitution 0 and
@@ -74,7 +74,7 @@
 //!     node, not those points (`bench/README-packings.md`, "Why held nodes do not hold
 //!     the points"). Tried: the position law with anticipating collisions (worse), and
 //!     that law corrected by the points' approach (the coupling diverged).
-//!   - Option: `ContactKind::Surface` puts each grain-pair contact on the two grains'
+//!   - The default since session 33: `ContactKind::Surface` puts each grain-pair contact on the two grains'
 //!     surface layers at its node, so its force moves the points that set the gap. The
 //!     area under two grains then falls with the cell size (0.60, 0.36, 0.24 % at
 //!     Δr/R = 0.12, 0.08, 0.06, μ = 0, measured with the node contact kept beside it)

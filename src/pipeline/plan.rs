@@ -286,7 +286,7 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
     let mut compacted = Vec::new();
     if let Some(c) = &p.compact {
         // The settings a BPM compaction solves with, `compact.solver` merged in (a key set
-        // there to the pipeline's own value names the same node). The MPM node contact does
+        // there to the pipeline's own value names the same node). The MPM grain contact does
         // not read them, but its nodes hash `solver` as they always have.
         let bpm_solver = canonical_solver(&p.compact_solver());
         for (up, dcase) in &discretised {
