@@ -4,8 +4,9 @@
 #   python3 bench/quasi_static.py OUT_DIR [FROM-TO ...] > bench/quasi_static_<method>.csv
 # gives window means of sigma, inertial and kinetic_ratio.
 # Usage: bench/quasi_static.sh OUT_DIR PIPELINE SPEED[,SPEED...] [--set KEY=VALUE ...]
-#   MPM (25 CPU-minutes): bench/quasi_static.sh OUT pipelines/mpm-packing-small.yaml 0.2,0.1 \
-#       --set prepare.grains=32 --set output.every=10
+#   MPM (25 CPU-minutes, the node contact; the surface contact, the default since session 33,
+#   costs more): bench/quasi_static.sh OUT pipelines/mpm-packing-small.yaml 0.2,0.1 \
+#       --set prepare.grains=32 --set output.every=10 --set discretise.mpm.contact=node
 #   BPM (20 CPU-minutes): bench/quasi_static.sh OUT pipelines/quick.yaml 1.0,0.5,0.25 \
 #       --set output.every=100
 #   then: python3 bench/quasi_static.py OUT 0.3-0.35 0.35-0.4 0.4-0.45

@@ -192,7 +192,7 @@ fn changing_a_key_renames_exactly_the_nodes_downstream_of_it() {
     assert_eq!(hashes(&dir, GRAPH, &["solver.islands=false"]), base);
     let r = hashes(&dir, GRAPH, &["solver.islands=true"]);
     assert_eq!(changed(&r).len(), base.len());
-    // the compact stage's own solver setting: the BPM compactions only (the MPM node
+    // the compact stage's own solver setting: the BPM compactions only (the MPM grain
     // contact does not read it), and nothing when it equals the pipeline's
     let r = hashes(&dir, GRAPH, &["compact.solver.anderson=8"]);
     assert_eq!(changed(&r), cases[4..8].to_vec());

@@ -47,7 +47,8 @@
 //!   point is pulled back by halving. About 5 Newton iterations per step to 30 % strain.
 //! * **Plate force.** `σ = F/L` uses the mean of the two plate forces; both are recorded.
 //! * **Packings** (`packing`, `node_contact`): one nodal field per grain on windows of a
-//!   common grid, node contact between grains and with the walls by contact dynamics on
+//!   common grid, contact between grains (on their surface layers at the contact nodes by
+//!   default, or at the nodes) and with the walls (at the nodes) by contact dynamics on
 //!   the condensed compliance (METHODS §4.4B); their decisions are listed in `packing`.
 //! * **Time step.** Chosen from the plate travel per step (default 0.05 h_g), not from CFL.
 //!   A step whose Newton solve fails is redone as two half steps (at most 3 halvings,

@@ -43,7 +43,7 @@
 //!   approaching `v^n` at every step, so the law above alone lets touching grains sink
 //!   into each other by `Δt |v^n·n|/2` a step. A perfectly inelastic normal impulse on
 //!   the start-of-step nodal velocities (momentum kept) removes the approach first.
-//! * **Surface contacts** (`ContactKind::Surface`, an option): at each grain-pair contact
+//! * **Surface contacts** (`ContactKind::Surface`, the default): at each grain-pair contact
 //!   node the contact acts on the two grains' surface layers instead of the node (the
 //!   strip's points within `SURFACE_LAYER` of the gap-setting one). Its slot is the
 //!   layer's mean stencil, so its force moves the points that set the gap, which a node

@@ -41,7 +41,7 @@
 //!   given); every grain is seeded 2×2 per cell on the same lattice and its point areas
 //!   rescaled to `π R²` (as for the single grain).
 //! * **Where contacts act**: on the surface layers at the contact nodes (the default), or
-//!   at the nodes (the paper's) (`ContactKind`, key `discretise.mpm.contact`).
+//!   at the nodes, as in the paper (`ContactKind`, key `discretise.mpm.contact`).
 //! * **Contact nodes, normal, gap, law**: see `super::node_contact` (nodes where two grains
 //!   have non-light mass, one contact per pair; mass-gradient normals; point-cloud gap in a
 //!   strip of one cell; the paper's velocity Signorini and Coulomb with restitution 0 and
@@ -56,8 +56,9 @@
 //!   where a grain's surface is coarse: 0.06–0.08 h_g for two grains of R = 5 cells, up to
 //!   0.44 h_g in the wedge of three grains of R = 3.3 cells at 5 % strain (tests). Seeded
 //!   disks that touch in the deposit already show −0.2 to −0.3 h_g.
-//! * **Open problem** (`pipelines/mpm-packing-small.yaml`, 16 grains, Δr/R = 0.12, to
-//!   ε = 0.3): the point clouds overlap. The worst node gap reaches -1.8 h_g without
+//! * **The node contact's interpenetration** (`pipelines/mpm-packing-small.yaml` with
+//!   `discretise.mpm.contact: node`, 16 grains, Δr/R = 0.12, to ε = 0.3): the point
+//!   clouds overlap. The worst node gap reaches -1.8 h_g without
 //!   friction and -0.74 h_g with μ = 0.5 (-1.2 before the start-of-step collisions), a
 //!   length that does not shrink as the grid is refined. The deep node contacts carry
 //!   force (307 of 340 with g < -0.5 h_g), so the nodes hold and the points still cross.
@@ -74,12 +75,13 @@
 //!     node, not those points (`bench/README-packings.md`, "Why held nodes do not hold
 //!     the points"). Tried: the position law with anticipating collisions (worse), and
 //!     that law corrected by the points' approach (the coupling diverged).
-//!   - The default since session 33: `ContactKind::Surface` puts each grain-pair contact on the two grains'
-//!     surface layers at its node, so its force moves the points that set the gap. The
-//!     area under two grains then falls with the cell size (0.60, 0.36, 0.24 % at
-//!     Δr/R = 0.12, 0.08, 0.06, μ = 0, measured with the node contact kept beside it)
-//!     where the node contact's stays near 2 %; about twice the cost (README, "Surface
-//!     contact").
+//!   - The default since session 33: `ContactKind::Surface` puts each grain-pair
+//!     contact on the two grains' surface layers at its node, so its force moves the
+//!     points that set the gap. The area under two grains then falls with the cell size
+//!     (0.60, 0.36, 0.24 % at Δr/R = 0.12, 0.08, 0.06, μ = 0, measured with the node
+//!     contact kept beside it) where the node contact's stays near 2 %; about twice the
+//!     cost on 12 grains, 1.4 times on the paper's 300 without friction (README,
+//!     "Surface contact", "MPM packings").
 //!   - Measured on the material (`super::overlap::points_inside`, session 30): with the
 //!     node contact 4-13 % of the points lie inside another grain under load (12.6 % of
 //!     100 grains at ε = 0.45), with the surface contact at most a few points in a thousand.
@@ -137,7 +139,8 @@ pub const ROTATION_LIMIT: f64 = 1.0;
 /// `θ² J/(βΔt²)` holds it: above a ratio of about 1 the step's tangent is indefinite
 /// (1.01-1.04 on a disk while p ≤ E/20; at E/10 another mode goes first, at 0.57:
 /// `tests/mpm_packing.rs`). Cholesky then falls back to the elastic tangent
-/// (`Solver::factorize`, counted in `StepReport::indefinite`) and the coupling can stall. Measured on 100 grains (surface contact, μ = 0) at ε = 0.35:
+/// (`Solver::factorize`, counted in `StepReport::indefinite`) and the coupling can stall.
+/// Measured on 100 grains (surface contact, μ = 0) at ε = 0.35:
 /// ratio 3.9-4.1, 95 of the 100 tangents indefinite, the coupling cycling between two
 /// states at a residual of 5e-3 until the 40-iteration cap, then the step redone as two
 /// halves (ratio 1.0, 8 indefinite) in about 10 iterations each. Splitting first spares the
@@ -149,13 +152,7 @@ pub fn rotation_ratio(grains: &[Points], dt: f64, beta: f64) -> f64 {
     grains
         .iter()
         .map(|pts| {
-            let centre = pts
-                .x
-                .iter()
-                .zip(&pts.mass)
-                .map(|(x, m)| x * *m)
-                .sum::<Vector2<f64>>()
-                / pts.total_mass();
+            let centre = pts.centre_of_mass();
             let inertia: f64 = pts
                 .x
                 .iter()

@@ -64,11 +64,19 @@ impl Points {
     }
 
     pub fn momentum(&self) -> Vector2<f64> {
+        self.v
+            .iter()
+            .zip(&self.mass)
+            .fold(Vector2::zeros(), |acc, (v, m)| acc + v * *m)
+    }
+
+    /// Σ m_p x_p / Σ m_p.
+    pub fn centre_of_mass(&self) -> Vector2<f64> {
         self.x
             .iter()
-            .zip(&self.v)
             .zip(&self.mass)
-            .fold(Vector2::zeros(), |acc, ((_, v), m)| acc + v * *m)
+            .fold(Vector2::zeros(), |acc, (x, m)| acc + x * *m)
+            / self.total_mass()
     }
 
     pub fn kinetic_energy(&self) -> f64 {
