@@ -50,8 +50,7 @@ pub const BPM_RELAX_STEPS: u64 = 400;
 /// and the walls carry about 1 MPa, the grains losing the area the box's Φ asks for
 /// (about 0.8 MPa of mean stress), at 1.4 times the node contact's cost without friction
 /// (README, "MPM packings"; decision of session 33).
-pub const MPM_CONTACT: crate::mpm::node_contact::ContactKind =
-    crate::mpm::node_contact::ContactKind::Surface;
+pub const MPM_CONTACT: super::schema::ContactKind = super::schema::ContactKind::Surface;
 
 // ---- compact ----
 /// Packing fraction at the start of a packing's compaction: the paper's unjammed 0.65

@@ -330,9 +330,8 @@ pub struct Mpm {
     pub bbar: bool,
     /// Where contacts between grains act in packings: `surface` (default: on the two
     /// grains' surface layers at each contact node, which keeps all but a few points in a
-    /// thousand out of other grains) or `node`
-    /// (at the node, the paper's Eqs. 11-12, through which grains pass under load; README,
-    /// "MPM packings").
+    /// thousand out of other grains) or `node` (at the node, the paper's Eqs. 11-12,
+    /// through which grains pass under load; README, "MPM packings").
     #[serde(default = "contact")]
     pub contact: ContactKind,
 }
