@@ -12,8 +12,11 @@ use std::fmt::Write as _;
 /// grain's true extents and lifts it out of the floor (`unjammed_layout`); 2: the MPM
 /// `surface` contact acts on the surface layers instead of beside the node contact; 3: the
 /// surface contact's NLGS is Anderson-accelerated, with a stall window under friction
-/// (`NlgsParams::for_packing`).
-pub const PACKING_VERSION: u32 = 3;
+/// (`NlgsParams::for_packing`); 4: the MPM stage records its first row at ε = 0, as the BPM
+/// stage does (before, the first was at ε ≈ 0.012 on `paper-mpm.yaml` and analyse read
+/// Φ(0) = 0.658 off it), and its `points_inside` tests a point the seeded circle clipped at
+/// the centre of the whole point with the same faces (`mpm::overlap`).
+pub const PACKING_VERSION: u32 = 4;
 
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.
@@ -117,8 +120,9 @@ pub struct Row {
     pub overlap_area: f64,
     /// Share of the particles (BPM) or material points (MPM) whose centre lies inside another
     /// grain: inside one of its particles, or one of its points' domains carried by F
-    /// (`mpm::overlap::points_inside`). Each marks an overlap deeper than the particle's
-    /// radius or the point's half-size there; grains that only touch have none.
+    /// (`mpm::overlap::points_inside`; a point the seeded circle clipped is tested at the
+    /// centre of the whole point with its faces). Each marks an overlap deeper than the
+    /// particle's radius or the point's half-size there; grains that only touch have none.
     pub points_inside: f64,
     /// Inertial number I = ε̇ d sqrt(ρ/p) (`inertial_number`): the time to rearrange a grain
     /// under the confining pressure over the time the wall takes to strain the packing.

@@ -4,7 +4,7 @@
 //! compact node's parameters), seeds one MPM grain per disk and runs
 //! `crate::mpm::packing::Packing` with the top wall moving down to `compact.final_strain`.
 //!
-//! Recorded every `output.every` steps (`crate::compaction::Row`): wall stresses are the
+//! Recorded at ε = 0 and every `output.every` steps (`crate::compaction::Row`): wall stresses are the
 //! means over the interval (bottom and top over `L`, sides over the current height), Z and
 //! Z* from the grain pairs with a loaded contact node at the recording step (rattlers with
 //! fewer than 2 contacts with friction, 3 without, wall contacts counted), the overlap the
@@ -229,8 +229,12 @@ pub fn compact(
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
     let every = p.output.every_for(Method::Mpm).max(1);
-    if st.pk.steps == 0 && p.output.vtk {
-        write_frame(ctx, &mut st).map_err(io)?;
+    // the state at ε = 0 is the first row, as in the BPM stage (its Φ is Φ0 to round-off)
+    if st.rows.is_empty() {
+        record(&mut st, mu);
+        if p.output.vtk {
+            write_frame(ctx, &mut st).map_err(io)?;
+        }
     }
     while st.pk.strain() < c.final_strain - 1e-12 {
         let report = st.pk.step().map_err(|e| e.to_string())?;
