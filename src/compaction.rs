@@ -124,6 +124,11 @@ pub struct Row {
     /// centre of the whole point with its faces). Each marks an overlap deeper than the
     /// particle's radius or the point's half-size there; grains that only touch have none.
     pub points_inside: f64,
+    /// MPM: the deepest overlap of two points of different grains at the recording step,
+    /// their ellipses along the line joining their centres, over h_g
+    /// (`mpm::overlap::deepest_pair`): the material's counterpart of the node gap in
+    /// `overlap`. BPM: NaN (its `overlap` is the particles').
+    pub point_overlap: f64,
     /// Inertial number I = ε̇ d sqrt(ρ/p) (`inertial_number`): the time to rearrange a grain
     /// under the confining pressure over the time the wall takes to strain the packing.
     /// Quasi-static flow has I ≲ 1e-3 (GDR MiDi 2004). NaN while the walls carry no load.
@@ -241,12 +246,12 @@ impl GrainScale {
 /// The time series as CSV, the contract's `time,strain,phi,z,sigma` first.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial,overlap_area,residual,unconverged,sigma_box,sigma_lever,points_inside\n",
+        "time,strain,phi,z,sigma,z_star,sigma_top,sigma_left,sigma_right,grain_contacts,rattlers,iterations,kinetic_ratio,overlap,inertial,overlap_area,residual,unconverged,sigma_box,sigma_lever,points_inside,point_overlap\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.time,
             r.strain,
             r.phi,
@@ -267,7 +272,8 @@ pub fn csv(rows: &[Row]) -> String {
             r.unconverged,
             r.sigma_box,
             r.sigma_lever,
-            r.points_inside
+            r.points_inside,
+            r.point_overlap
         );
     }
     s
@@ -286,6 +292,8 @@ impl PackingFigures {
         });
         self.overlap_area_max = self.overlap_area_max.max(row.overlap_area);
         self.points_inside_max = self.points_inside_max.max(row.points_inside);
+        // NaN for BPM rows: max keeps the other
+        self.point_overlap_max = self.point_overlap_max.max(row.point_overlap);
         self.area_change = self.area_change.max((area_ratio - 1.0).abs());
         self.residual_max = self.residual_max.max(row.residual);
     }
@@ -377,6 +385,8 @@ pub struct PackingFigures {
     pub overlap_area_max: f64,
     /// Largest `Row::points_inside` of the run.
     pub points_inside_max: f64,
+    /// MPM: largest `Row::point_overlap` of the run (over h_g). BPM: 0.
+    pub point_overlap_max: f64,
     /// Largest relative change of the total grain area over the run: the closed areas of
     /// the aggregates (BPM), Σ v_p of the points (MPM).
     pub area_change: f64,

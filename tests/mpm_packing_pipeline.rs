@@ -179,7 +179,9 @@ fn a_frictionless_mpm_packing_keeps_its_grain_area() {
 /// 2-7% of the points through. Swept over seeds 7, 1, 2, 3 with μ = 0 and 0.5 (session
 /// 34's build): none in 6 of the 8 runs; in two frictionless ones 1 and 2 points at one
 /// record, ε ≈ 0.13, where grains driven by the wall collide before the packing carries
-/// load (σ ≈ 12-15 kPa); none once loaded in any.
+/// load (σ ≈ 12-15 kPa); none once loaded in any. No two points of different grains
+/// overlap by a half-size (h_g/4) either: 0.10 h_g at worst here (session 34), where the
+/// node gap reads 0.52 h_g.
 #[test]
 fn a_small_mpm_packing_keeps_its_grains_apart() {
     let (c, dir) = small_packing_with("mpm-packing-overlap", 0.5, "discretise.mpm.contact=surface");
@@ -190,6 +192,11 @@ fn a_small_mpm_packing_keeps_its_grains_apart() {
         100.0 * c.figures.points_inside_max,
         100.0 * loaded,
         c.figures.overlap_max
+    );
+    let deepest = c.rows.iter().map(|r| r.point_overlap).fold(0.0, f64::max);
+    assert!(
+        deepest == c.figures.point_overlap_max && deepest > 0.0 && deepest < 0.25,
+        "two points overlap by {deepest} h_g"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -231,6 +238,16 @@ fn surface_contact_at_least_halves_the_overlap_of_a_small_mpm_packing() {
         "points inside another grain: {} with surface contact, {} with node contact",
         inside(&c),
         inside(&node)
+    );
+    // and the deepest overlap of two points: 0.16 h_g against the node contact's 0.50, near
+    // the measure's ceiling (two whole points with one centre: l_p + l_q = h_g/2, times
+    // their stretch)
+    let pair = |c: &PackingCompacted| c.figures.point_overlap_max;
+    assert!(
+        pair(&c) < 0.5 * pair(&node),
+        "deepest point pair: {} h_g with surface contact, {} with node contact",
+        pair(&c),
+        pair(&node)
     );
     assert_eq!(c.figures.mass_change, Some(0.0));
     assert_eq!(c.figures.unconverged_steps, 0);

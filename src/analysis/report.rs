@@ -93,15 +93,17 @@ fn fits(cases: &[CaseSummary]) -> String {
 /// How far the packings' grains passed into each other, and how well each step was solved.
 fn soundness(cases: &[CaseSummary]) -> String {
     let mut t = String::from(
-        "| case | worst overlap | points inside another grain, at most | steps whose contact forces stopped short of the tolerance |\n| --- | --- | --- | --- |\n",
+        "| case | worst overlap | deepest point pair (MPM) | points inside another grain, at most | steps whose contact forces stopped short of the tolerance |\n| --- | --- | --- | --- | --- |\n",
     );
     for c in cases.iter().filter(|c| c.kind == "packing") {
         let unit = if c.method == "bpm" { "d_min" } else { "h_g" };
         let _ = writeln!(
             t,
-            "| {} | {} {unit} | {}% | {} |",
+            "| {} | {} {unit} | {} | {}% | {} |",
             c.case,
             c.overlap_max.map_or("—".into(), num),
+            c.point_overlap_max
+                .map_or("—".into(), |v| format!("{} h_g", num(v))),
             c.points_inside_max.map_or("—".into(), |v| num(100.0 * v)),
             c.unconverged_steps.map_or("—".into(), |v| v.to_string())
         );
@@ -239,13 +241,19 @@ mod tests {
         };
         let cases = [
             packing("bpm-mu0", "bpm", 2e-4, 0.0, 0),
-            packing("mpm-mu0.5", "mpm", 1.25, 0.028, 3),
+            CaseSummary {
+                point_overlap_max: Some(0.125),
+                ..packing("mpm-mu0.5", "mpm", 1.25, 0.028, 3)
+            },
             grain,
         ];
         let md = markdown("x", &paper(), &cases, &[], &[]);
-        assert!(md.contains("| bpm-mu0 | 2.000e-4 d_min | 0% | 0 |"), "{md}");
         assert!(
-            md.contains("| mpm-mu0.5 | 1.2500 h_g | 2.8000% | 3 |"),
+            md.contains("| bpm-mu0 | 2.000e-4 d_min | — | 0% | 0 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| mpm-mu0.5 | 1.2500 h_g | 0.1250 h_g | 2.8000% | 3 |"),
             "{md}"
         );
         // single grains have no grain pairs: no row

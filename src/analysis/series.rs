@@ -16,7 +16,8 @@ pub fn method_name(m: Method) -> &'static str {
 
 /// A packing's rows: `case, method, friction, time, strain, phi, z, z_star, sigma, inertial`,
 /// and how far grains passed into each other and how well each interval was solved:
-/// `overlap` (BPM: over d_min; MPM: over h_g), `points_inside`, `unconverged`.
+/// `overlap` (BPM: over d_min; MPM: over h_g), `points_inside`, `point_overlap` (MPM, over
+/// h_g; BPM NaN), `unconverged`.
 pub fn packing(case: &str, c: &PackingCompacted) -> PolarsResult<DataFrame> {
     let n = c.rows.len();
     let get = |f: fn(&crate::compaction::Row) -> f64| c.rows.iter().map(f).collect::<Vec<f64>>();
@@ -33,6 +34,7 @@ pub fn packing(case: &str, c: &PackingCompacted) -> PolarsResult<DataFrame> {
         "inertial" => get(|r| r.inertial),
         "overlap" => get(|r| r.overlap),
         "points_inside" => get(|r| r.points_inside),
+        "point_overlap" => get(|r| r.point_overlap),
         "unconverged" => get(|r| r.unconverged as f64),
     )
 }

@@ -79,6 +79,9 @@ pub struct CaseSummary {
     pub overlap_max: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_inside_max: Option<f64>,
+    /// MPM: the deepest overlap of two points of different grains over h_g.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub point_overlap_max: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub unconverged_steps: Option<u64>,
     // ---- single grains ----
@@ -152,6 +155,9 @@ pub fn packing(df: &DataFrame, a: &Analyse) -> PolarsResult<(CaseSummary, DataFr
     s.phi_at_strain_045 = measures::crossing(df, "strain", "phi", 0.45)?;
     s.overlap_max = measures::max(df, "overlap")?;
     s.points_inside_max = measures::max(df, "points_inside")?;
+    if s.method == "mpm" {
+        s.point_overlap_max = measures::max(df, "point_overlap")?;
+    }
     // a count: the rows' counts summed (the frame holds them as f64, `series::packing`)
     s.unconverged_steps = measures::sum(df, "unconverged")?.map(|n| n.round() as u64);
     if let Some(j) = measures::jamming(df, a.jamming_fraction)? {

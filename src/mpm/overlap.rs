@@ -20,6 +20,7 @@
 //!   of the whole point with the same faces; tested at its own centre it counted
 //!   overlaps of a few hundredths of a cell. No staircase: the domains carry the shear.
 
+use super::node_contact::reach_against;
 use super::points::Points;
 use nalgebra::Vector2;
 
@@ -148,6 +149,58 @@ pub fn points_inside(grains: &[Points]) -> usize {
     count
 }
 
+/// The deepest overlap of two points of different grains (m, 0 if none): their domains'
+/// ellipses, the shapes the contact's gap uses (`node_contact::reach_against`), projected
+/// on the line joining their centres, `l_p + l_q - |x_p - x_q|`. A pair measure on the
+/// material, where the node gap takes one grain's extreme face and the other's from
+/// different points. Points are binned by twice the largest reach, so a pair that
+/// overlaps lies in neighbouring bins.
+pub fn deepest_pair(grains: &[Points]) -> f64 {
+    let reach = |g: &Points, p: usize| (0..4).map(|d| g.reach(p, d)).fold(0.0, f64::max);
+    let (mut lo, mut bin) = (Vector2::repeat(f64::INFINITY), 0.0f64);
+    for g in grains {
+        for p in 0..g.len() {
+            lo = lo.inf(&g.x[p]);
+            bin = bin.max(2.0 * reach(g, p));
+        }
+    }
+    if !(bin > 0.0 && bin.is_finite()) {
+        return 0.0;
+    }
+    let key = |x: &Vector2<f64>| {
+        let c = (x - lo) / bin;
+        (c.x as i64, c.y as i64)
+    };
+    let mut bins: std::collections::HashMap<(i64, i64), Vec<(u32, u32)>> =
+        std::collections::HashMap::new();
+    for (g, pts) in grains.iter().enumerate() {
+        for (p, x) in pts.x.iter().enumerate() {
+            bins.entry(key(x)).or_default().push((g as u32, p as u32));
+        }
+    }
+    let mut deepest = 0.0f64;
+    for (a, pts) in grains.iter().enumerate() {
+        for (p, x) in pts.x.iter().enumerate() {
+            let (i, j) = key(x);
+            for (di, dj) in (-1..=1).flat_map(|di| (-1..=1).map(move |dj| (di, dj))) {
+                let Some(list) = bins.get(&(i + di, j + dj)) else {
+                    continue;
+                };
+                // each pair once: the partner from a later grain
+                for &(g, q) in list.iter().filter(|&&(g, _)| g as usize > a) {
+                    let (b, q) = (&grains[g as usize], q as usize);
+                    let d = x - b.x[q];
+                    let dist = d.norm();
+                    let n = if dist > 0.0 { d / dist } else { Vector2::x() };
+                    let depth = reach_against(pts, p, &n) + reach_against(b, q, &-n) - dist;
+                    deepest = deepest.max(depth);
+                }
+            }
+        }
+    }
+    deepest
+}
+
 /// Centre of the whole point (half-size `l_p` every way) that has point `p`'s faces where
 /// the seeded circle clipped it: `x_p + F (e1 - e0, e3 - e2)`, `x_p` itself for a point the
 /// circle does not clip. A clipped point's centre lies on or near its grain's face, so
@@ -232,6 +285,21 @@ mod tests {
         // one grain's own points never count, however they overlap
         assert_eq!(points_inside(std::slice::from_ref(&a)), 0);
         assert_eq!(points_inside(&[]), 0);
+    }
+
+    #[test]
+    fn the_deepest_pair_is_the_overlap_of_the_facing_columns() {
+        let (n, s, id) = (4, 0.25, Matrix2::identity());
+        let a = grain(Vector2::zeros(), n, s, id);
+        let at = |dx: f64| grain(Vector2::new(n as f64 * s - dx, 0.0), n, s, id);
+        // facing points a distance s - δ apart with reaches s/2 each: δ; diagonal partners
+        // lie farther than their reaches
+        assert!(deepest_pair(&[a.clone(), at(0.0)]).abs() < 1e-12);
+        assert!((deepest_pair(&[a.clone(), at(0.1 * s)]) - 0.1 * s).abs() < 1e-12);
+        assert!((deepest_pair(&[a.clone(), at(0.7 * s)]) - 0.7 * s).abs() < 1e-12);
+        assert_eq!(deepest_pair(&[a.clone(), at(-0.5 * s)]), 0.0);
+        // a grain's own points overlap nothing
+        assert_eq!(deepest_pair(std::slice::from_ref(&a)), 0.0);
     }
 
     #[test]

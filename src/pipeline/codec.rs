@@ -28,8 +28,10 @@ use serde::de::DeserializeOwned;
 /// an MPM packing splits a step before trying it when its inertia cannot hold the grains'
 /// rotations (`mpm::packing::rotation_ratio`), which changes its results, and its figures
 /// count the split and the halved sub-steps. Version 20: they count the grains'
-/// factorisations and those whose consistent tangent was indefinite.
-pub const FORMAT_VERSION: u32 = 20;
+/// factorisations and those whose consistent tangent was indefinite. Version 21: a
+/// packing's rows and figures record the deepest overlap of two MPM points
+/// (`point_overlap`).
+pub const FORMAT_VERSION: u32 = 21;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

@@ -308,6 +308,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
         overlap: overlap.max(0.0),
         overlap_area: lenses / area,
         points_inside: inside.iter().filter(|&&i| i).count() as f64 / inside.len() as f64,
+        point_overlap: f64::NAN,
         inertial: f64::NAN,
         sigma_box: f64::NAN,
         sigma_lever: f64::NAN,

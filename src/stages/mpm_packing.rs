@@ -309,7 +309,7 @@ pub fn compact(
     f.overlap_max_loaded = compaction::max_after_jamming(&st.rows, |r| r.overlap);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), grain area within {:.2}%{}",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), deepest point pair {:.2} h_g, grain area within {:.2}%{}",
         st.pk.grains.len(),
         st.pk.point_count(),
         steps,
@@ -323,6 +323,7 @@ pub fn compact(
         100.0 * f.overlap_area_max,
         100.0 * last.points_inside,
         100.0 * f.points_inside_max,
+        f.point_overlap_max,
         100.0 * f.area_change,
         f.unconverged_note()
     );
@@ -404,6 +405,7 @@ fn record(st: &mut Running, mu: f64) {
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
         overlap_area: overlap::shared_area(&pk.grains),
         points_inside: overlap::points_inside(&pk.grains) as f64 / pk.point_count() as f64,
+        point_overlap: overlap::deepest_pair(&pk.grains) / pk.grid.h,
         inertial: f64::NAN,
         sigma_box: st.stress / n,
         sigma_lever: st.lever / n,
