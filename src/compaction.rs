@@ -127,7 +127,8 @@ pub struct Row {
     /// MPM: the deepest overlap of two points of different grains at the recording step,
     /// their ellipses along the line joining their centres, over h_g
     /// (`mpm::overlap::deepest_pair`): the material's counterpart of the node gap in
-    /// `overlap`. BPM: NaN (its `overlap` is the particles').
+    /// `overlap`, with a ceiling of about h_g/2 (two points with one centre). BPM: NaN (its
+    /// `overlap` is the particles').
     pub point_overlap: f64,
     /// Inertial number I = ε̇ d sqrt(ρ/p) (`inertial_number`): the time to rearrange a grain
     /// under the confining pressure over the time the wall takes to strain the packing.
@@ -292,8 +293,10 @@ impl PackingFigures {
         });
         self.overlap_area_max = self.overlap_area_max.max(row.overlap_area);
         self.points_inside_max = self.points_inside_max.max(row.points_inside);
-        // NaN for BPM rows: max keeps the other
-        self.point_overlap_max = self.point_overlap_max.max(row.point_overlap);
+        if row.point_overlap.is_finite() {
+            let v = row.point_overlap;
+            self.point_overlap_max = Some(self.point_overlap_max.map_or(v, |m| m.max(v)));
+        }
         self.area_change = self.area_change.max((area_ratio - 1.0).abs());
         self.residual_max = self.residual_max.max(row.residual);
     }
@@ -385,8 +388,8 @@ pub struct PackingFigures {
     pub overlap_area_max: f64,
     /// Largest `Row::points_inside` of the run.
     pub points_inside_max: f64,
-    /// MPM: largest `Row::point_overlap` of the run (over h_g). BPM: 0.
-    pub point_overlap_max: f64,
+    /// MPM: largest `Row::point_overlap` of the run (over h_g). BPM: None (not measured).
+    pub point_overlap_max: Option<f64>,
     /// Largest relative change of the total grain area over the run: the closed areas of
     /// the aggregates (BPM), Σ v_p of the points (MPM).
     pub area_change: f64,

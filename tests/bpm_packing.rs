@@ -132,6 +132,9 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
     // so no particle's centre lies inside another grain's particle (an overlap past its radius)
     assert_eq!(c.figures.points_inside_max, 0.0);
     assert!(rows.iter().all(|r| r.points_inside == 0.0));
+    // the MPM points' pair measure is not taken: NaN in the rows, none in the figures
+    assert!(rows.iter().all(|r| r.point_overlap.is_nan()));
+    assert_eq!(c.figures.point_overlap_max, None);
     // the worst overlap is located between two grains, at a recorded strain
     let site = c.figures.overlap_site;
     assert!(

@@ -46,7 +46,8 @@ pub const BPM_STEP: f64 = 0.1;
 pub const BPM_RELAX_STEPS: u64 = 400;
 /// Where MPM grain-pair contacts act: on the grains' surface layers. With the paper's node
 /// contact 9.8% of the material points of its 300 grains lie inside another grain at
-/// ε = 0.45 (the grains pass into each other under 0.16 MPa); with this one 0.10-0.15%,
+/// ε = 0.45 (the grains pass into each other under 0.16 MPa); with this one 0.10-0.15% by
+/// the measure of session 33 (which counted clipped surface points at their own centre),
 /// and the walls carry about 1 MPa, the grains losing the area the box's Φ asks for
 /// (about 0.8 MPa of mean stress), at 1.4 times the node contact's cost without friction
 /// (README, "MPM packings"; decision of session 33).

@@ -329,9 +329,10 @@ pub struct Mpm {
     #[serde(default = "yes")]
     pub bbar: bool,
     /// Where contacts between grains act in packings: `surface` (default: on the two
-    /// grains' surface layers at each contact node, which keeps all but a few points in a
-    /// thousand out of other grains) or `node` (at the node, the paper's Eqs. 11-12,
-    /// through which grains pass under load; README, "MPM packings").
+    /// grains' surface layers at each contact node, which keeps the grains' points out of
+    /// each other but for a few in ten thousand under the heaviest load) or `node` (at the
+    /// node, the paper's Eqs. 11-12, through which grains pass under load; README, "MPM
+    /// packings").
     #[serde(default = "contact")]
     pub contact: ContactKind,
 }

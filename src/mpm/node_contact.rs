@@ -288,7 +288,7 @@ pub fn global_node(grid: &Grid, window: &Grid, id: usize) -> usize {
 /// the ellipse with the point's axis reaches as half-axes. (The rectangle's support
 /// `|n_x| l_x + |n_y| l_y` counts the corners of the staircase: two disks seeded touching
 /// along a 60° line showed a gap of -0.29 h.)
-pub fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
+fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
     let rx = points.reach(p, usize::from(dir.x < 0.0));
     let ry = points.reach(p, 2 + usize::from(dir.y < 0.0));
     ((dir.x * rx).powi(2) + (dir.y * ry).powi(2)).sqrt()

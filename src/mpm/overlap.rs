@@ -15,12 +15,13 @@
 //!   seeded circle) carried by its F. A point's centre lies a half-size (Δr/2 = h_g/4)
 //!   inside its own grain's face, so grains that touch, or overlap by less than that,
 //!   have none; every point counted marks an overlap deeper than a half-size. A point the
-//!   circle clipped has its centre nearer its face (by up to the half-size: 0.06 l_p on
-//!   one point counted in the tests' 12 grains, session 34), so it is tested at the centre
-//!   of the whole point with the same faces; tested at its own centre it counted
-//!   overlaps of a few hundredths of a cell. No staircase: the domains carry the shear.
+//!   circle clipped has its centre nearer its face (0.01-0.06 l_p from it on the points
+//!   counted in the tests' 12 grains, session 34), so it is tested at the centre of the
+//!   whole point with the same faces; tested at its own centre it counted overlaps of a
+//!   few hundredths of a cell. No staircase: the domains carry the shear.
+//! * `deepest_pair`, the deepest overlap of two points of different grains: their domain
+//!   ellipses carried by F, along the line joining their centres.
 
-use super::node_contact::reach_against;
 use super::points::Points;
 use nalgebra::Vector2;
 
@@ -150,11 +151,13 @@ pub fn points_inside(grains: &[Points]) -> usize {
 }
 
 /// The deepest overlap of two points of different grains (m, 0 if none): their domains'
-/// ellipses, the shapes the contact's gap uses (`node_contact::reach_against`), projected
-/// on the line joining their centres, `l_p + l_q - |x_p - x_q|`. A pair measure on the
-/// material, where the node gap takes one grain's extreme face and the other's from
-/// different points. Points are binned by twice the largest reach, so a pair that
-/// overlaps lies in neighbouring bins.
+/// ellipses (the shape the contact's gap uses) carried by F, projected on the line joining
+/// their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's `support` toward the other.
+/// A pair measure on the material, where the node gap takes one grain's extreme face and
+/// the other's from different points. Its ceiling is two points with one centre, about
+/// h_g/2 (times their stretch): deeper passing does not show here but in `points_inside`.
+/// Points are binned by twice the largest reach, so a pair that overlaps lies in
+/// neighbouring bins.
 pub fn deepest_pair(grains: &[Points]) -> f64 {
     let reach = |g: &Points, p: usize| (0..4).map(|d| g.reach(p, d)).fold(0.0, f64::max);
     let (mut lo, mut bin) = (Vector2::repeat(f64::INFINITY), 0.0f64);
@@ -192,7 +195,7 @@ pub fn deepest_pair(grains: &[Points]) -> f64 {
                     let d = x - b.x[q];
                     let dist = d.norm();
                     let n = if dist > 0.0 { d / dist } else { Vector2::x() };
-                    let depth = reach_against(pts, p, &n) + reach_against(b, q, &-n) - dist;
+                    let depth = support(pts, p, &-n) + support(b, q, &n) - dist;
                     deepest = deepest.max(depth);
                 }
             }
@@ -201,10 +204,22 @@ pub fn deepest_pair(grains: &[Points]) -> f64 {
     deepest
 }
 
+/// Support of point `p`'s domain ellipse along the unit vector `dir`: the reference
+/// ellipse's with half-axes the quadrant's extents, along `F^T dir` (F's rotation
+/// included, where `Points::reach` takes each axis's stretch only).
+fn support(g: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
+    let (m, e) = (g.def_grad[p].transpose() * dir, g.extent[p]);
+    let ex = if m.x > 0.0 { e[1] } else { e[0] };
+    let ey = if m.y > 0.0 { e[3] } else { e[2] };
+    ((m.x * ex).powi(2) + (m.y * ey).powi(2)).sqrt()
+}
+
 /// Centre of the whole point (half-size `l_p` every way) that has point `p`'s faces where
 /// the seeded circle clipped it: `x_p + F (e1 - e0, e3 - e2)`, `x_p` itself for a point the
 /// circle does not clip. A clipped point's centre lies on or near its grain's face, so
-/// testing it would count a point that barely touches another grain.
+/// testing it would count a point that barely touches another grain. (A point clipped on
+/// both sides of an axis, where the circle's chord is shorter than Δr, is mirrored across
+/// the grain's axis instead, staying in its row or column at the circle's edge: rare.)
 fn whole_point_centre(g: &Points, p: usize) -> Vector2<f64> {
     let e = g.extent[p];
     g.x[p] + g.def_grad[p] * Vector2::new(e[1] - e[0], e[3] - e[2])
@@ -282,6 +297,15 @@ mod tests {
         assert_eq!(points_inside(&[a.clone(), clipped(0.1 * l)]), 0);
         assert_eq!(points_inside(&[a.clone(), clipped(0.9 * l)]), 0);
         assert_eq!(points_inside(&[a.clone(), clipped(1.05 * l)]), 2);
+        // the same from below, clipped toward +y
+        let below = |y: f64| Points {
+            x: vec![Vector2::new(0.45, y)],
+            def_grad: vec![id],
+            extent: vec![[l, l, l, 0.01 * l]],
+            ..Points::default()
+        };
+        assert_eq!(points_inside(&[a.clone(), below(0.9 * l)]), 0);
+        assert_eq!(points_inside(&[a.clone(), below(1.05 * l)]), 2);
         // one grain's own points never count, however they overlap
         assert_eq!(points_inside(std::slice::from_ref(&a)), 0);
         assert_eq!(points_inside(&[]), 0);
@@ -300,6 +324,80 @@ mod tests {
         assert_eq!(deepest_pair(&[a.clone(), at(-0.5 * s)]), 0.0);
         // a grain's own points overlap nothing
         assert_eq!(deepest_pair(std::slice::from_ref(&a)), 0.0);
+    }
+
+    #[test]
+    fn the_deepest_pair_finds_what_trying_every_pair_finds() {
+        // points scattered over three grains, each with uneven extents and a rotated,
+        // stretched F, against every pair tried
+        let mut rng = crate::rng::Rng::new(11);
+        let mut u = |a: f64, b: f64| a + (b - a) * rng.uniform();
+        let grains: Vec<Points> = (0..3)
+            .map(|_| {
+                let n = 40;
+                let (x, def_grad, extent) = (0..n)
+                    .map(|_| {
+                        let th = u(0.0, std::f64::consts::TAU);
+                        let (c, s) = (th.cos(), th.sin());
+                        let f = Matrix2::new(c, -s, s, c)
+                            * Matrix2::new(u(0.7, 1.3), u(-0.2, 0.2), 0.0, u(0.7, 1.3));
+                        let e = [
+                            u(0.002, 0.05),
+                            u(0.002, 0.05),
+                            u(0.002, 0.05),
+                            u(0.002, 0.05),
+                        ];
+                        (Vector2::new(u(0.0, 1.0), u(0.0, 1.0)), f, e)
+                    })
+                    .fold(
+                        (vec![], vec![], vec![]),
+                        |(mut x, mut f, mut e), (xi, fi, ei)| {
+                            x.push(xi);
+                            f.push(fi);
+                            e.push(ei);
+                            (x, f, e)
+                        },
+                    );
+                Points {
+                    x,
+                    def_grad,
+                    extent,
+                    ..Points::default()
+                }
+            })
+            .collect();
+        let mut brute = 0.0f64;
+        for a in 0..3 {
+            for b in a + 1..3 {
+                for p in 0..grains[a].len() {
+                    for q in 0..grains[b].len() {
+                        let d = grains[a].x[p] - grains[b].x[q];
+                        let n = d.normalize();
+                        let depth =
+                            support(&grains[a], p, &-n) + support(&grains[b], q, &n) - d.norm();
+                        brute = brute.max(depth);
+                    }
+                }
+            }
+        }
+        assert!(brute > 0.0);
+        assert_eq!(deepest_pair(&grains), brute);
+    }
+
+    #[test]
+    fn a_rotated_point_reaches_with_its_own_faces() {
+        // extents 0.01 toward reference +x, 1 elsewhere, turned by 90°: its reference +x
+        // face now looks along +y
+        let quarter = Matrix2::new(0.0, -1.0, 1.0, 0.0);
+        let g = Points {
+            x: vec![Vector2::zeros()],
+            def_grad: vec![quarter],
+            extent: vec![[1.0, 0.01, 1.0, 1.0]],
+            ..Points::default()
+        };
+        assert!((support(&g, 0, &Vector2::y()) - 0.01).abs() < 1e-12);
+        assert!((support(&g, 0, &-Vector2::y()) - 1.0).abs() < 1e-12);
+        assert!((support(&g, 0, &Vector2::x()) - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -259,6 +259,8 @@ pub fn compact(
         }
         let f = &mut st.figures;
         f.steps += 1;
+        // summed here, over the steps at the end (the rows' means would count the ε = 0 row)
+        f.iterations_mean += report.iterations as f64;
         f.iterations_max = f.iterations_max.max(report.iterations as u64);
         let kept_converged = report.kept_unconverged == 0;
         st.solves.add(report.residual, kept_converged);
@@ -302,8 +304,7 @@ pub fn compact(
         .map_err(io)?;
     let f = &mut st.figures;
     let steps = f.steps.max(1);
-    f.iterations_mean =
-        st.rows.iter().map(|r| r.iterations).sum::<f64>() / st.rows.len().max(1) as f64;
+    f.iterations_mean /= steps as f64;
     f.mass_change = Some((st.pk.total_mass() - st.mass0).abs() / st.mass0);
     f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
     f.overlap_max_loaded = compaction::max_after_jamming(&st.rows, |r| r.overlap);
@@ -323,7 +324,7 @@ pub fn compact(
         100.0 * f.overlap_area_max,
         100.0 * last.points_inside,
         100.0 * f.points_inside_max,
-        f.point_overlap_max,
+        f.point_overlap_max.unwrap_or(0.0),
         100.0 * f.area_change,
         f.unconverged_note()
     );
