@@ -180,7 +180,7 @@ fn a_frictionless_mpm_packing_keeps_its_grain_area() {
 /// 34's build): none in 6 of the 8 runs; in two frictionless ones 1 and 2 points at one
 /// record, ε ≈ 0.13, where grains driven by the wall collide before the packing carries
 /// load (σ ≈ 12-15 kPa); none once loaded in any. No two points of different grains
-/// overlap by a half-size (h_g/4) either: 0.10 h_g at worst here (session 34), where the
+/// overlap by a half-size (h_g/4) either: 0.17 h_g at worst here (session 34), where the
 /// node gap reads 0.52 h_g.
 #[test]
 fn a_small_mpm_packing_keeps_its_grains_apart() {
@@ -239,7 +239,7 @@ fn surface_contact_at_least_halves_the_overlap_of_a_small_mpm_packing() {
         inside(&c),
         inside(&node)
     );
-    // and the deepest overlap of two points: 0.16 h_g against the node contact's 0.50, at
+    // and the deepest overlap of two points: 0.16 h_g against the node contact's 0.49, at
     // the measure's ceiling (two whole points with one centre: l_p + l_q = h_g/2, times
     // their stretch), which its deeper passing cannot exceed
     let pair = |c: &PackingCompacted| c.figures.point_overlap_max.unwrap();
