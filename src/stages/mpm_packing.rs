@@ -231,10 +231,7 @@ pub fn compact(
     let every = p.output.every_for(Method::Mpm).max(1);
     // the state at ε = 0 is the first row, as in the BPM stage (its Φ is Φ0 to round-off)
     if st.rows.is_empty() {
-        record(&mut st, mu);
-        if p.output.vtk {
-            write_frame(ctx, &mut st).map_err(io)?;
-        }
+        record(p, ctx, &mut st, mu).map_err(io)?;
     }
     while st.pk.strain() < c.final_strain - 1e-12 {
         let report = st.pk.step().map_err(|e| e.to_string())?;
@@ -275,10 +272,7 @@ pub fn compact(
         bar.set((strain * 1e4) as u64, format!("ε = {strain:.3}"));
         let steps = st.pk.steps;
         if steps % every == 0 {
-            record(&mut st, mu);
-            if p.output.vtk {
-                write_frame(ctx, &mut st).map_err(io)?;
-            }
+            record(p, ctx, &mut st, mu).map_err(io)?;
         }
         if p.output.snapshot_every > 0 && steps % p.output.snapshot_every == 0 {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
@@ -294,10 +288,7 @@ pub fn compact(
     ctx.save_continuation(&st, |s: &Running| s.pk.strain())
         .map_err(io)?;
     if st.since > 0 {
-        record(&mut st, mu);
-        if p.output.vtk {
-            write_frame(ctx, &mut st).map_err(io)?;
-        }
+        record(p, ctx, &mut st, mu).map_err(io)?;
     }
     bar.finish();
     ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
@@ -374,8 +365,8 @@ pub fn compact(
     ))
 }
 
-/// Closes the recording interval: one row.
-fn record(st: &mut Running, mu: f64) {
+/// Closes the recording interval: one row, and one frame of the points.
+fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, mu: f64) -> std::io::Result<()> {
     let pk = &st.pk;
     let n = st.since.max(1) as f64;
     let (pairs, walls) = pk.contact_pairs();
@@ -424,6 +415,10 @@ fn record(st: &mut Running, mu: f64) {
     st.deepest = OverlapSite::default();
     st.solves = SolveTally::default();
     (st.stress, st.lever) = (0.0, 0.0);
+    if p.output.vtk {
+        write_frame(ctx, st)?;
+    }
+    Ok(())
 }
 
 /// A frame of the points: `grain_id`, `volume`, `velocity`, `stress` (3x3 with σzz) and
