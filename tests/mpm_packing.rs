@@ -64,8 +64,8 @@ fn vertical_extent(pk: &Packing, g: usize) -> f64 {
     let p = &pk.grains[g];
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for k in 0..p.len() {
-        lo = lo.min(p.x[k].y - p.reach(k, 2));
-        hi = hi.max(p.x[k].y + p.reach(k, 3));
+        lo = lo.min(p.x[k].y - p.support(k, &-Vector2::y()));
+        hi = hi.max(p.x[k].y + p.support(k, &Vector2::y()));
     }
     hi - lo
 }

@@ -7,7 +7,7 @@
 //! first row inside, up to a cell thick, was held by small weights alone; Newton cycled
 //! and points were crushed after 0.9 h_g of plate travel.) Its gap is measured
 //! from the material points it sees, `g_i = min_{p: S_ip > 0} ((x_p - x_w)·n - l_p)`, with
-//! `l_p` the point's reach toward the wall (clipped by the seeded circle, see `Points`).
+//! `l_p` the point's support toward the wall (clipped by the seeded circle, see `Points::support`).
 //! Signorini is imposed on the end-of-step gap with existing overlaps left alone,
 //! `max(g_i, 0) + n·(u_i - Δt V_w) >= 0  ⊥  f_n >= 0`,
 //! i.e. the gap-anticipated velocity Signorini of METHODS §1.4/§4.3 written on the
@@ -131,12 +131,11 @@ pub fn detect<'a>(
     let reach = 0.5 * grid.h;
     for (w, wall) in walls.iter().enumerate() {
         let (axis, sign) = wall.axis();
-        // The point's reach toward the wall, i.e. along -n.
-        let toward = 2 * axis + usize::from(sign < 0.0);
         gap.clear();
         gap.resize(node_pos.len(), f64::INFINITY);
         for p in 0..points.len() {
-            let gp = (points.x[p] - wall.origin).dot(&wall.normal) - points.reach(p, toward);
+            let gp =
+                (points.x[p] - wall.origin).dot(&wall.normal) - points.support(p, &-wall.normal);
             for &i in point_nodes(p) {
                 gap[i] = gap[i].min(gp);
             }

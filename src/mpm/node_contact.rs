@@ -16,8 +16,11 @@
 //!   `n^α = -n^β` (collinear). Walls use their own normal.
 //! * **Gap** from the point clouds near the node (the points with `S_ip > 0`),
 //!   `g = min_α (x_p·n - l_p(-n)) - max_β (x_q·n + l_q(n))`, with `l_p(n)` the support
-//!   `√((n_x l_x)² + (n_y l_y)²)` of the ellipse on the point's reaches toward the contact
-//!   (`Points::reach`: `Δr/2` clipped by the seeded circle and stretched with `F`).
+//!   of the point's domain along `n` (`Points::support`: the ellipse on the extents, `Δr/2`
+//!   clipped by the seeded circle, carried by `F` with its rotation). Until session 35 the
+//!   extents were stretched along the spatial axes, ignoring rotation: a turned surface
+//!   point presented its clipped face where its whole one should be (12 grains: deepest
+//!   point pair 0.34 h_g against 0.22, a few points pressed into the other grain).
 //! * **Law** between grains, the paper's (Eqs. 11–12, METHODS §4.3): on the end-of-step
 //!   relative velocity `v = v^α - v^β` with restitution 0, velocity Signorini with gap
 //!   anticipation `v·n + max(g, 0)/Δt >= 0 ⊥ f_n >= 0` and Coulomb on `v·t`. Newmark
@@ -284,16 +287,6 @@ pub fn global_node(grid: &Grid, window: &Grid, id: usize) -> usize {
     (id / window.nx + j0) * grid.nx + id % window.nx + i0
 }
 
-/// Reach of point `p` along `-dir` (toward a partner on the `-dir` side): the support of
-/// the ellipse with the point's axis reaches as half-axes. (The rectangle's support
-/// `|n_x| l_x + |n_y| l_y` counts the corners of the staircase: two disks seeded touching
-/// along a 60° line showed a gap of -0.29 h.)
-fn reach_against(points: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
-    let rx = points.reach(p, usize::from(dir.x < 0.0));
-    let ry = points.reach(p, 2 + usize::from(dir.y < 0.0));
-    ((dir.x * rx).powi(2) + (dir.y * ry).powi(2)).sqrt()
-}
-
 /// Finds this step's node contacts (grain pairs first, ordered by node, then walls by grain)
 /// and numbers each grain's contact slots. `friction` is the inter-grain coefficient;
 /// walls carry their own. `alert` drops candidates with a larger gap. `nm` and `dt` set
@@ -388,10 +381,8 @@ pub fn detect(
         let (t, xi) = (crate::geom::perp(n), grid.node_position(node));
         let near = |x: &Vector2<f64>| (x - xi).dot(&t).abs() <= 0.5 * grid.h;
         // each point's face toward the other grain, along n
-        let face_a =
-            |p: usize| grains[ga].points.x[p].dot(&n) - reach_against(grains[ga].points, p, &n);
-        let face_b =
-            |q: usize| grains[gb].points.x[q].dot(&n) + reach_against(grains[gb].points, q, &-n);
+        let face_a = |p: usize| grains[ga].points.x[p].dot(&n) - grains[ga].points.support(p, &-n);
+        let face_b = |q: usize| grains[gb].points.x[q].dot(&n) + grains[gb].points.support(q, &n);
         let (side_a, side_b) = (
             reached[ga][ia]
                 .iter()

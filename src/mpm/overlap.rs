@@ -198,23 +198,13 @@ pub fn deepest_pair(grains: &[Points]) -> f64 {
                     let d = x - b.x[q];
                     let dist = d.norm();
                     let n = if dist > 0.0 { d / dist } else { Vector2::x() };
-                    let depth = support(pts, p, &-n) + support(b, q, &n) - dist;
+                    let depth = pts.support(p, &-n) + b.support(q, &n) - dist;
                     deepest = deepest.max(depth);
                 }
             }
         }
     }
     deepest
-}
-
-/// Support of point `p`'s domain ellipse along the unit vector `dir`: the reference
-/// ellipse's with half-axes the quadrant's extents, along `F^T dir` (F's rotation
-/// included, where `Points::reach` takes each axis's stretch only).
-fn support(g: &Points, p: usize, dir: &Vector2<f64>) -> f64 {
-    let (m, e) = (g.def_grad[p].transpose() * dir, g.extent[p]);
-    let ex = if m.x > 0.0 { e[1] } else { e[0] };
-    let ey = if m.y > 0.0 { e[3] } else { e[2] };
-    ((m.x * ex).powi(2) + (m.y * ey).powi(2)).sqrt()
 }
 
 /// Centre of the whole point (half-size `l_p` every way) that has point `p`'s faces where
@@ -376,8 +366,7 @@ mod tests {
                     for q in 0..grains[b].len() {
                         let d = grains[a].x[p] - grains[b].x[q];
                         let n = d.normalize();
-                        let depth =
-                            support(&grains[a], p, &-n) + support(&grains[b], q, &n) - d.norm();
+                        let depth = grains[a].support(p, &-n) + grains[b].support(q, &n) - d.norm();
                         brute = brute.max(depth);
                     }
                 }
@@ -385,22 +374,6 @@ mod tests {
         }
         assert!(brute > 0.0);
         assert_eq!(deepest_pair(&grains), brute);
-    }
-
-    #[test]
-    fn a_rotated_point_reaches_with_its_own_faces() {
-        // extents 0.01 toward reference +x, 1 elsewhere, turned by 90°: its reference +x
-        // face now looks along +y
-        let quarter = Matrix2::new(0.0, -1.0, 1.0, 0.0);
-        let g = Points {
-            x: vec![Vector2::zeros()],
-            def_grad: vec![quarter],
-            extent: vec![[1.0, 0.01, 1.0, 1.0]],
-            ..Points::default()
-        };
-        assert!((support(&g, 0, &Vector2::y()) - 0.01).abs() < 1e-12);
-        assert!((support(&g, 0, &-Vector2::y()) - 1.0).abs() < 1e-12);
-        assert!((support(&g, 0, &Vector2::x()) - 1.0).abs() < 1e-12);
     }
 
     #[test]
