@@ -8,9 +8,11 @@
 //!   the circle; the cell size is `h_g = 2Δr` with `n = round(R/Δr)` whole cells across
 //!   the diameter, so the disk touches both plates exactly (Δr/R = 0.029 gives n = 34,
 //!   3,640 points). Every point gets the area `π R²/N`, so `Σ V_p = π R²` exactly.
-//! * **Surface of the point cloud.** Each point's reach toward ±x and ±y is its half-width
-//!   `l_p = Δr/2` clipped by the seeded circle, stretched with `F`. Gaps to the plates and
-//!   the width `L` use it. With the plain `l_p` the Cartesian seeding has a flat of width
+//! * **Surface of the point cloud.** Each point's extents toward ±x and ±y are its
+//!   half-width `l_p = Δr/2` clipped by the seeded circle; its face along a direction `n`
+//!   is the support of the ellipse on those extents along `Fᵀn` (`Points::support`, with
+//!   the point's rotation since session 35). Gaps to the plates and between grains, and
+//!   the width `L`, use it. With the plain `l_p` the Cartesian seeding has a flat of width
 //!   ≈ 2√(R h_g/2) at each pole (half the diameter at Δr/R = 0.08) that acts as a flat
 //!   punch: the force was 1.8 × Johnson's at ε = 0.02.
 //! * **Small-mass nodes.** Nodes lighter than `LIGHT_NODE` = 1e-4 of the mean nodal mass

@@ -152,7 +152,7 @@ pub fn points_inside(grains: &[Points]) -> usize {
 
 /// The deepest overlap of two points of different grains (m, 0 if none): their domains'
 /// ellipses (the shape the contact's gap uses) carried by F, projected on the line joining
-/// their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's `support` toward the other.
+/// their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's `Points::support` toward the other.
 /// A pair measure on the material, where the node gap takes one grain's extreme face and
 /// the other's from different points. Its ceiling is two points with one centre, about
 /// h_g/2 (times their stretch): deeper passing does not show here but in `points_inside`.
