@@ -152,13 +152,12 @@ pub fn points_inside(grains: &[Points]) -> usize {
 
 /// The deepest overlap of two points of different grains (m, 0 if none): their domains'
 /// ellipses (the shape the contact's gap uses) carried by F, projected on the line joining
-/// their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's `Points::support` toward
-/// the other. A pair measure on the material, where the node gap takes one grain's extreme
-/// face and the other's from different points. Its ceiling is two points with one centre, about
-/// h_g/2 (times their stretch): deeper passing does not show here but in `points_inside`.
-/// Points are binned by twice the largest bound on `support` (the largest extent times
-/// |F|, whose Frobenius norm bounds |F^T n|), so a pair that overlaps lies in neighbouring
-/// bins.
+/// their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's `Points::support` toward the
+/// other. A pair measure on the material, where the node gap takes one grain's extreme face and
+/// the other's from different points. Its ceiling is two points with one centre, about h_g/2
+/// (times their stretch): deeper passing does not show here but in `points_inside`. Points are
+/// binned by twice the largest bound on `support` (the largest extent times |F|, whose
+/// Frobenius norm bounds |F^T n|), so a pair that overlaps lies in neighbouring bins.
 pub fn deepest_pair(grains: &[Points]) -> f64 {
     let reach = |g: &Points, p: usize| {
         g.extent[p].iter().fold(0.0, |m: f64, &e| m.max(e)) * g.def_grad[p].norm()
