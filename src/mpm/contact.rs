@@ -7,7 +7,8 @@
 //! first row inside, up to a cell thick, was held by small weights alone; Newton cycled
 //! and points were crushed after 0.9 h_g of plate travel.) Its gap is measured
 //! from the material points it sees, `g_i = min_{p: S_ip > 0} ((x_p - x_w)·n - l_p)`, with
-//! `l_p` the point's support toward the wall (clipped by the seeded circle, see `Points::support`).
+//! `l_p` the point's face toward the wall (`Points::support`: clipped by the seeded circle,
+//! carried by `F`).
 //! Signorini is imposed on the end-of-step gap with existing overlaps left alone,
 //! `max(g_i, 0) + n·(u_i - Δt V_w) >= 0  ⊥  f_n >= 0`,
 //! i.e. the gap-anticipated velocity Signorini of METHODS §1.4/§4.3 written on the

@@ -19,8 +19,9 @@
 //!   of the point's domain along `n` (`Points::support`: the ellipse on the extents, `Δr/2`
 //!   clipped by the seeded circle, carried by `F` with its rotation). Until session 35 the
 //!   extents were stretched along the spatial axes, ignoring rotation: a turned surface
-//!   point presented its clipped face where its whole one should be (12 grains: deepest
-//!   point pair 0.34 h_g against 0.22, a few points pressed into the other grain).
+//!   point presented its clipped face where its whole one should be (12 grains, 4 seeds ×
+//!   2 frictions: a few points pressed into the other grain in 2 of 8 runs before, in none
+//!   after; the deepest point pair the same within the runs' scatter).
 //! * **Law** between grains, the paper's (Eqs. 11–12, METHODS §4.3): on the end-of-step
 //!   relative velocity `v = v^α - v^β` with restitution 0, velocity Signorini with gap
 //!   anticipation `v·n + max(g, 0)/Δt >= 0 ⊥ f_n >= 0` and Coulomb on `v·t`. Newmark
