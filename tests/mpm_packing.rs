@@ -61,13 +61,7 @@ fn grain_force(pk: &Packing) -> f64 {
 }
 
 fn vertical_extent(pk: &Packing, g: usize) -> f64 {
-    let p = &pk.grains[g];
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for k in 0..p.len() {
-        lo = lo.min(p.x[k].y - p.support(k, &-Vector2::y()));
-        hi = hi.max(p.x[k].y + p.support(k, &Vector2::y()));
-    }
-    hi - lo
+    pk.grains[g].span(&Vector2::y())
 }
 
 /// Two equal grains stacked between the floor and the top wall, side walls away; grid

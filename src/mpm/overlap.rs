@@ -156,17 +156,14 @@ pub fn points_inside(grains: &[Points]) -> usize {
 /// other. A pair measure on the material, where the node gap takes one grain's extreme face and
 /// the other's from different points. Its ceiling is two points with one centre, about h_g/2
 /// (times their stretch): deeper passing does not show here but in `points_inside`. Points are
-/// binned by twice the largest bound on `support` (the largest extent times |F|, whose
-/// Frobenius norm bounds |F^T n|), so a pair that overlaps lies in neighbouring bins.
+/// binned by twice the largest `Points::support_bound`, so a pair that overlaps lies in
+/// neighbouring bins.
 pub fn deepest_pair(grains: &[Points]) -> f64 {
-    let reach = |g: &Points, p: usize| {
-        g.extent[p].iter().fold(0.0, |m: f64, &e| m.max(e)) * g.def_grad[p].norm()
-    };
     let (mut lo, mut bin) = (Vector2::repeat(f64::INFINITY), 0.0f64);
     for g in grains {
         for p in 0..g.len() {
             lo = lo.inf(&g.x[p]);
-            bin = bin.max(2.0 * reach(g, p));
+            bin = bin.max(2.0 * g.support_bound(p));
         }
     }
     if !(bin > 0.0 && bin.is_finite()) {

@@ -100,15 +100,27 @@ impl Points {
         ((m.x * ex).powi(2) + (m.y * ey).powi(2)).sqrt()
     }
 
-    /// Largest horizontal extent `max(x_p + l_p) - min(x_p - l_p)` (m), with the
-    /// support along `∓x` in place of `l_p`.
-    pub fn width(&self) -> f64 {
+    /// A bound on `support(p, n)` over every unit `n`: the largest extent times `|F|`,
+    /// whose Frobenius norm bounds `|F^T n|`.
+    pub fn support_bound(&self, p: usize) -> f64 {
+        self.extent[p].iter().fold(0.0, |m: f64, &e| m.max(e)) * self.def_grad[p].norm()
+    }
+
+    /// Extent of the points along the unit vector `dir` (m):
+    /// `max(x_p·dir + l_p(dir)) - min(x_p·dir - l_p(-dir))` with `l_p` the `support`.
+    pub fn span(&self, dir: &Vector2<f64>) -> f64 {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for p in 0..self.len() {
-            lo = lo.min(self.x[p].x - self.support(p, &-Vector2::x()));
-            hi = hi.max(self.x[p].x + self.support(p, &Vector2::x()));
+            let at = self.x[p].dot(dir);
+            lo = lo.min(at - self.support(p, &-dir));
+            hi = hi.max(at + self.support(p, dir));
         }
         hi - lo
+    }
+
+    /// Largest horizontal extent (m): the `span` along x.
+    pub fn width(&self) -> f64 {
+        self.span(&Vector2::x())
     }
 
     /// Seeds a disk of `radius` centred at `centre`: 2×2 points per cell of `grid` at the
