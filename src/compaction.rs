@@ -15,8 +15,9 @@ use std::fmt::Write as _;
 /// (`NlgsParams::for_packing`); 4: the MPM stage records its first row at ε = 0, as the BPM
 /// stage does (before, the first was at ε ≈ 0.012 on `paper-mpm.yaml` and analyse read
 /// Φ(0) = 0.658 off it), and its `points_inside` tests a point the seeded circle clipped at
-/// the centre of the whole point with the same faces (`mpm::overlap`).
-pub const PACKING_VERSION: u32 = 4;
+/// the centre of the whole point with the same faces (`mpm::overlap`); 5: a surface-contact
+/// NLGS whose acceleration stalls goes on with plain sweeps (`NlgsParams::stall_window`).
+pub const PACKING_VERSION: u32 = 5;
 
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.
