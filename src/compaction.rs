@@ -151,7 +151,8 @@ pub struct Row {
 }
 
 /// Where a packing's worst interpenetration between two grains was, in `Row::overlap`'s
-/// measure (BPM: particle overlap over d_min; MPM: node gap over h_g).
+/// measure (BPM: particle overlap over d_min; MPM: node gap over h_g) or, for the MPM
+/// points, in `Row::point_overlap`'s.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct OverlapSite {
     pub overlap: f64,
@@ -391,6 +392,8 @@ pub struct PackingFigures {
     pub points_inside_max: f64,
     /// MPM: largest `Row::point_overlap` of the run (over h_g). BPM: None (not measured).
     pub point_overlap_max: Option<f64>,
+    /// MPM: where and when it was (the midpoint of the two points). BPM: None.
+    pub point_overlap_site: Option<OverlapSite>,
     /// Largest relative change of the total grain area over the run: the closed areas of
     /// the aggregates (BPM), Σ v_p of the points (MPM).
     pub area_change: f64,

@@ -135,6 +135,7 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
     // the MPM points' pair measure is not taken: NaN in the rows, none in the figures
     assert!(rows.iter().all(|r| r.point_overlap.is_nan()));
     assert_eq!(c.figures.point_overlap_max, None);
+    assert_eq!(c.figures.point_overlap_site, None);
     // the worst overlap is located between two grains, at a recorded strain
     let site = c.figures.overlap_site;
     assert!(

@@ -199,6 +199,26 @@ fn a_small_mpm_packing_keeps_its_grains_apart() {
         c.figures.point_overlap_max == Some(deepest) && deepest > 0.0 && deepest < 0.25,
         "two points overlap by {deepest} h_g"
     );
+    // and located: two grains, inside the box, at a recorded strain
+    let site = c
+        .figures
+        .point_overlap_site
+        .expect("MPM locates its deepest pair");
+    assert!(site.overlap == deepest, "{site:?}");
+    assert!(
+        site.grains[0] < site.grains[1] && site.grains[1] < 12,
+        "{site:?}"
+    );
+    assert!(
+        c.rows
+            .iter()
+            .any(|r| r.strain == site.strain && r.point_overlap == deepest)
+    );
+    let (w, h) = (c.geometry.width, c.geometry.height(site.strain));
+    assert!(
+        (0.0..=w).contains(&site.at[0]) && (0.0..=h).contains(&site.at[1]),
+        "{site:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

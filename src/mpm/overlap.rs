@@ -150,7 +150,18 @@ pub fn points_inside(grains: &[Points]) -> usize {
     count
 }
 
-/// The deepest overlap of two points of different grains (m, 0 if none): their domains'
+/// Two points of different grains and how deep they overlap (`deepest_pair`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointPair {
+    /// Overlap depth (m), 0 when no two points overlap (then `at` and `grains` are unset).
+    pub depth: f64,
+    /// Midpoint of the two points' centres (m).
+    pub at: Vector2<f64>,
+    /// Their grains, the lower index first.
+    pub grains: [usize; 2],
+}
+
+/// The deepest overlap of two points of different grains (m, 0 if none) and where it is: their domains'
 /// ellipses (the shape the contact's gap uses) carried by F, projected on the line joining
 /// their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's `Points::support` toward the
 /// other. A pair measure on the material, where the node gap takes one grain's extreme face and
@@ -158,7 +169,7 @@ pub fn points_inside(grains: &[Points]) -> usize {
 /// (times their stretch): deeper passing does not show here but in `points_inside`. Points are
 /// binned by twice the largest `Points::support_bound`, so a pair that overlaps lies in
 /// neighbouring bins.
-pub fn deepest_pair(grains: &[Points]) -> f64 {
+pub fn deepest_pair(grains: &[Points]) -> PointPair {
     let (mut lo, mut bin) = (Vector2::repeat(f64::INFINITY), 0.0f64);
     for g in grains {
         for p in 0..g.len() {
@@ -167,7 +178,7 @@ pub fn deepest_pair(grains: &[Points]) -> f64 {
         }
     }
     if !(bin > 0.0 && bin.is_finite()) {
-        return 0.0;
+        return PointPair::default();
     }
     let key = |x: &Vector2<f64>| {
         let c = (x - lo) / bin;
@@ -180,7 +191,7 @@ pub fn deepest_pair(grains: &[Points]) -> f64 {
             bins.entry(key(x)).or_default().push((g as u32, p as u32));
         }
     }
-    let mut deepest = 0.0f64;
+    let mut deepest = PointPair::default();
     for (a, pts) in grains.iter().enumerate() {
         for (p, x) in pts.x.iter().enumerate() {
             let (i, j) = key(x);
@@ -195,7 +206,13 @@ pub fn deepest_pair(grains: &[Points]) -> f64 {
                     let dist = d.norm();
                     let n = if dist > 0.0 { d / dist } else { Vector2::x() };
                     let depth = pts.support(p, &-n) + b.support(q, &n) - dist;
-                    deepest = deepest.max(depth);
+                    if depth > deepest.depth {
+                        deepest = PointPair {
+                            depth,
+                            at: 0.5 * (x + b.x[q]),
+                            grains: [a, g as usize],
+                        };
+                    }
                 }
             }
         }
@@ -307,12 +324,17 @@ mod tests {
         let at = |dx: f64| grain(Vector2::new(n as f64 * s - dx, 0.0), n, s, id);
         // facing points a distance s - δ apart with reaches s/2 each: δ; diagonal partners
         // lie farther than their reaches
-        assert!(deepest_pair(&[a.clone(), at(0.0)]).abs() < 1e-12);
-        assert!((deepest_pair(&[a.clone(), at(0.1 * s)]) - 0.1 * s).abs() < 1e-12);
-        assert!((deepest_pair(&[a.clone(), at(0.7 * s)]) - 0.7 * s).abs() < 1e-12);
-        assert_eq!(deepest_pair(&[a.clone(), at(-0.5 * s)]), 0.0);
+        let depth = |b: Points| deepest_pair(&[a.clone(), b]).depth;
+        assert!(depth(at(0.0)).abs() < 1e-12);
+        assert!((depth(at(0.1 * s)) - 0.1 * s).abs() < 1e-12);
+        assert!((depth(at(0.7 * s)) - 0.7 * s).abs() < 1e-12);
+        // between a's outer column (x = 3.5 s) and the other's first (4.5 s - 0.1 s)
+        let pair = deepest_pair(&[a.clone(), at(0.1 * s)]);
+        assert_eq!(pair.grains, [0, 1]);
+        assert!((pair.at.x - 3.95 * s).abs() < 1e-12, "{pair:?}");
+        assert_eq!(depth(at(-0.5 * s)), 0.0);
         // a grain's own points overlap nothing
-        assert_eq!(deepest_pair(std::slice::from_ref(&a)), 0.0);
+        assert_eq!(deepest_pair(std::slice::from_ref(&a)), PointPair::default());
     }
 
     #[test]
@@ -355,7 +377,7 @@ mod tests {
                 }
             })
             .collect();
-        let mut brute = 0.0f64;
+        let mut brute = PointPair::default();
         for a in 0..3 {
             for b in a + 1..3 {
                 for p in 0..grains[a].len() {
@@ -363,12 +385,19 @@ mod tests {
                         let d = grains[a].x[p] - grains[b].x[q];
                         let n = d.normalize();
                         let depth = grains[a].support(p, &-n) + grains[b].support(q, &n) - d.norm();
-                        brute = brute.max(depth);
+                        if depth > brute.depth {
+                            let at = 0.5 * (grains[a].x[p] + grains[b].x[q]);
+                            brute = PointPair {
+                                depth,
+                                at,
+                                grains: [a, b],
+                            };
+                        }
                     }
                 }
             }
         }
-        assert!(brute > 0.0);
+        assert!(brute.depth > 0.0);
         assert_eq!(deepest_pair(&grains), brute);
     }
 

@@ -30,8 +30,9 @@ use serde::de::DeserializeOwned;
 /// count the split and the halved sub-steps. Version 20: they count the grains'
 /// factorisations and those whose consistent tangent was indefinite. Version 21: a
 /// packing's rows and figures record the deepest overlap of two MPM points
-/// (`point_overlap`).
-pub const FORMAT_VERSION: u32 = 21;
+/// (`point_overlap`). Version 22: an MPM packing's figures say where its deepest point pair
+/// was (`point_overlap_site`).
+pub const FORMAT_VERSION: u32 = 22;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())

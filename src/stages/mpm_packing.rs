@@ -301,7 +301,7 @@ pub fn compact(
     f.overlap_max_loaded = compaction::max_after_jamming(&st.rows, |r| r.overlap);
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), deepest point pair {:.2} h_g, grain area within {:.2}%{}",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), deepest point pair {:.2} h_g{}, grain area within {:.2}%{}",
         st.pk.grains.len(),
         st.pk.point_count(),
         steps,
@@ -316,6 +316,7 @@ pub fn compact(
         100.0 * last.points_inside,
         100.0 * f.points_inside_max,
         f.point_overlap_max.unwrap_or(0.0),
+        f.point_overlap_site.map_or(String::new(), |s| s.note()),
         100.0 * f.area_change,
         f.unconverged_note()
     );
@@ -380,6 +381,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, mu: f64) -> std::io::R
     let ke = pk.kinetic_energy();
     let scale = compaction::GrainScale::new(pk.grains.len(), st.area0, st.mass0);
     let strain_rate = pk.params.wall_velocity / height;
+    let pair = overlap::deepest_pair(&pk.grains);
     let mut row = Row {
         time: pk.time,
         strain: pk.strain(),
@@ -397,7 +399,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, mu: f64) -> std::io::R
         overlap: (-st.min_gap).max(0.0) / pk.grid.h,
         overlap_area: overlap::shared_area(&pk.grains),
         points_inside: overlap::points_inside(&pk.grains) as f64 / pk.point_count() as f64,
-        point_overlap: overlap::deepest_pair(&pk.grains) / pk.grid.h,
+        point_overlap: pair.depth / pk.grid.h,
         inertial: f64::NAN,
         sigma_box: st.stress / n,
         sigma_lever: st.lever / n,
@@ -407,6 +409,14 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, mu: f64) -> std::io::R
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     st.figures
         .fold(&row, st.deepest, pk.grain_area() / st.area0);
+    let site = OverlapSite {
+        overlap: row.point_overlap,
+        strain: row.strain,
+        at: [pair.at.x, pair.at.y],
+        grains: pair.grains.map(|g| g as u32),
+    };
+    let f = &mut st.figures;
+    f.point_overlap_site = Some(f.point_overlap_site.map_or(site, |s| s.deepest(site)));
     if st.touched_top {
         st.figures.kinetic_ratio_max = st.figures.kinetic_ratio_max.max(row.kinetic_ratio);
     }
