@@ -392,7 +392,8 @@ pub struct PackingFigures {
     pub points_inside_max: f64,
     /// MPM: largest `Row::point_overlap` of the run (over h_g). BPM: None (not measured).
     pub point_overlap_max: Option<f64>,
-    /// MPM: where and when it was (the midpoint of the two points). BPM: None.
+    /// MPM: where and when it was (the midpoint of the two points); None if no two points
+    /// overlapped. BPM: None.
     pub point_overlap_site: Option<OverlapSite>,
     /// Largest relative change of the total grain area over the run: the closed areas of
     /// the aggregates (BPM), Σ v_p of the points (MPM).

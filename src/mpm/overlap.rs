@@ -161,14 +161,14 @@ pub struct PointPair {
     pub grains: [usize; 2],
 }
 
-/// The deepest overlap of two points of different grains (m, 0 if none) and where it is: their domains'
-/// ellipses (the shape the contact's gap uses) carried by F, projected on the line joining
-/// their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's `Points::support` toward the
-/// other. A pair measure on the material, where the node gap takes one grain's extreme face and
-/// the other's from different points. Its ceiling is two points with one centre, about h_g/2
-/// (times their stretch): deeper passing does not show here but in `points_inside`. Points are
-/// binned by twice the largest `Points::support_bound`, so a pair that overlaps lies in
-/// neighbouring bins.
+/// The deepest overlap of two points of different grains (m, 0 if none) and where it is:
+/// their domains' ellipses (the shape the contact's gap uses) carried by F, projected on the
+/// line joining their centres, `l_p + l_q - |x_p - x_q|` with `l` each one's
+/// `Points::support` toward the other. A pair measure on the material, where the node gap
+/// takes one grain's extreme face and the other's from different points. Its ceiling is two
+/// points with one centre, about h_g/2 (times their stretch): deeper passing does not show
+/// here but in `points_inside`. Points are binned by twice the largest
+/// `Points::support_bound`, so a pair that overlaps lies in neighbouring bins.
 pub fn deepest_pair(grains: &[Points]) -> PointPair {
     let (mut lo, mut bin) = (Vector2::repeat(f64::INFINITY), 0.0f64);
     for g in grains {

@@ -409,14 +409,16 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, mu: f64) -> std::io::R
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
     st.figures
         .fold(&row, st.deepest, pk.grain_area() / st.area0);
-    let site = OverlapSite {
-        overlap: row.point_overlap,
-        strain: row.strain,
-        at: [pair.at.x, pair.at.y],
-        grains: pair.grains.map(|g| g as u32),
-    };
-    let f = &mut st.figures;
-    f.point_overlap_site = Some(f.point_overlap_site.map_or(site, |s| s.deepest(site)));
+    if pair.depth > 0.0 {
+        let site = OverlapSite {
+            overlap: row.point_overlap,
+            strain: row.strain,
+            at: [pair.at.x, pair.at.y],
+            grains: pair.grains.map(|g| g as u32),
+        };
+        let f = &mut st.figures;
+        f.point_overlap_site = Some(f.point_overlap_site.map_or(site, |s| s.deepest(site)));
+    }
     if st.touched_top {
         st.figures.kinetic_ratio_max = st.figures.kinetic_ratio_max.max(row.kinetic_ratio);
     }
