@@ -395,6 +395,9 @@ pub struct PackingFigures {
     /// MPM: where and when it was (the midpoint of the two points); None if no two points
     /// overlapped. BPM: None.
     pub point_overlap_site: Option<OverlapSite>,
+    /// MPM: the largest once loaded (`max_after_jamming`): on 100 grains at μ = 0.5 the
+    /// deepest pair of the run (0.37 h_g) was two grains colliding before jamming. BPM: None.
+    pub point_overlap_max_loaded: Option<f64>,
     /// Largest relative change of the total grain area over the run: the closed areas of
     /// the aggregates (BPM), Σ v_p of the points (MPM).
     pub area_change: f64,

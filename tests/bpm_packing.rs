@@ -136,6 +136,7 @@ fn a_bpm_packing_densifies_jams_and_carries_the_load_through_both_walls() {
     assert!(rows.iter().all(|r| r.point_overlap.is_nan()));
     assert_eq!(c.figures.point_overlap_max, None);
     assert_eq!(c.figures.point_overlap_site, None);
+    assert_eq!(c.figures.point_overlap_max_loaded, None);
     // the worst overlap is located between two grains, at a recorded strain
     let site = c.figures.overlap_site;
     assert!(

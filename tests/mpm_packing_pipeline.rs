@@ -199,6 +199,9 @@ fn a_small_mpm_packing_keeps_its_grains_apart() {
         c.figures.point_overlap_max == Some(deepest) && deepest > 0.0 && deepest < 0.25,
         "two points overlap by {deepest} h_g"
     );
+    // once loaded (the floor at a tenth of its largest stress or more): no deeper
+    let pair_loaded = c.figures.point_overlap_max_loaded.unwrap();
+    assert!(pair_loaded > 0.0 && pair_loaded <= deepest, "{pair_loaded}");
     // and located: two grains, inside the box, at a recorded strain
     let site = c
         .figures

@@ -299,9 +299,10 @@ pub fn compact(
     f.mass_change = Some((st.pk.total_mass() - st.mass0).abs() / st.mass0);
     f.inertial_max = compaction::max_after_jamming(&st.rows, |r| r.inertial);
     f.overlap_max_loaded = compaction::max_after_jamming(&st.rows, |r| r.overlap);
+    f.point_overlap_max_loaded = Some(compaction::max_after_jamming(&st.rows, |r| r.point_overlap));
     let last = st.rows.last().cloned().unwrap_or_default();
     let summary = format!(
-        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), deepest point pair {:.2} h_g{}, grain area within {:.2}%{}",
+        "{} grains, {} points, {} steps of {:.2e} s, {:.1} coupling iterations/step, {}, worst overlap {:.2} h_g{} ({:.2} once loaded), area under two grains {:.2}% (at most {:.2}%), points inside another grain {:.2}% (at most {:.2}%), deepest point pair {:.2} h_g{} ({:.2} once loaded), grain area within {:.2}%{}",
         st.pk.grains.len(),
         st.pk.point_count(),
         steps,
@@ -317,6 +318,7 @@ pub fn compact(
         100.0 * f.points_inside_max,
         f.point_overlap_max.unwrap_or(0.0),
         f.point_overlap_site.map_or(String::new(), |s| s.note()),
+        f.point_overlap_max_loaded.unwrap_or(0.0),
         100.0 * f.area_change,
         f.unconverged_note()
     );
