@@ -854,9 +854,9 @@ mod tests {
     /// blocks `[[b00, b01], [b10, b11]]` by slot pair (00, 01, 10, 11), as recorded in the
     /// 300-grain paper-mpm run at μ = 0.5 (grains 211 and 222 colliding in flight at
     /// ε = 0.0226, session 36). The two contacts push on nearly the same rigid motion, so
-    /// their Delassus matrix is close to singular: plain sweeps converge by 4% a sweep,
-    /// and Anderson's extrapolations turned the sticking contact's neighbour from slip to
-    /// stick and back in a cycle of four sweeps that never halved its best ratio.
+    /// their Delassus matrix is close to singular: plain sweeps contract by about 1% a
+    /// sweep, and Anderson's extrapolations turned the sticking contact's neighbour from
+    /// slip to stick and back in a cycle of four sweeps that never halved its best ratio.
     fn colliding_pair() -> (Vec<NodeContact>, Vec<Slots>) {
         let grain = |blocks: [[f64; 4]; 4], disp: [f64; 4]| {
             let mut patterns = Patterns::default();
