@@ -284,9 +284,16 @@ pub fn csv(rows: &[Row]) -> String {
 
 impl PackingFigures {
     /// Folds a recorded row into the run's worst figures, for both methods: `site` is where
-    /// the row's worst overlap was (its depth and strain are taken from the row), and
-    /// `area_ratio` the grains' area over their area at the start.
-    pub fn fold(&mut self, row: &Row, site: OverlapSite, area_ratio: f64) {
+    /// the row's worst overlap was and `pair` where its deepest point pair was (MPM; None
+    /// for BPM), each with its depth and strain taken from the row, and `area_ratio` the
+    /// grains' area over their area at the start.
+    pub fn fold(
+        &mut self,
+        row: &Row,
+        site: OverlapSite,
+        pair: Option<OverlapSite>,
+        area_ratio: f64,
+    ) {
         self.overlap_max = self.overlap_max.max(row.overlap);
         self.overlap_site = self.overlap_site.deepest(OverlapSite {
             overlap: row.overlap,
@@ -298,6 +305,15 @@ impl PackingFigures {
         if row.point_overlap.is_finite() {
             let v = row.point_overlap;
             self.point_overlap_max = Some(self.point_overlap_max.map_or(v, |m| m.max(v)));
+        }
+        if let Some(pair) = pair.filter(|_| row.point_overlap > 0.0) {
+            let pair = OverlapSite {
+                overlap: row.point_overlap,
+                strain: row.strain,
+                ..pair
+            };
+            self.point_overlap_site =
+                Some(self.point_overlap_site.map_or(pair, |s| s.deepest(pair)));
         }
         self.area_change = self.area_change.max((area_ratio - 1.0).abs());
         self.residual_max = self.residual_max.max(row.residual);

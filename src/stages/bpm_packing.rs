@@ -316,7 +316,7 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running) -> std::io::Result<()>
         unconverged: st.solves_since.unconverged,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
-    st.figures.fold(&row, site, area / st.area0);
+    st.figures.fold(&row, site, None, area / st.area0);
     st.rows.push(row);
     st.impulse = [V2::zeros(); 4];
     st.since_record = 0;

@@ -409,18 +409,13 @@ fn record(p: &Pipeline, ctx: &StageCtx, st: &mut Running, mu: f64) -> std::io::R
         unconverged: st.solves.unconverged,
     };
     row.inertial = scale.inertial_number(strain_rate, row.pressure());
+    let pair = OverlapSite {
+        at: [pair.at.x, pair.at.y],
+        grains: pair.grains.map(|g| g as u32),
+        ..OverlapSite::default()
+    };
     st.figures
-        .fold(&row, st.deepest, pk.grain_area() / st.area0);
-    if pair.depth > 0.0 {
-        let site = OverlapSite {
-            overlap: row.point_overlap,
-            strain: row.strain,
-            at: [pair.at.x, pair.at.y],
-            grains: pair.grains.map(|g| g as u32),
-        };
-        let f = &mut st.figures;
-        f.point_overlap_site = Some(f.point_overlap_site.map_or(site, |s| s.deepest(site)));
-    }
+        .fold(&row, st.deepest, Some(pair), pk.grain_area() / st.area0);
     if st.touched_top {
         st.figures.kinetic_ratio_max = st.figures.kinetic_ratio_max.max(row.kinetic_ratio);
     }
