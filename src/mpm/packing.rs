@@ -9,9 +9,10 @@
 //!    `‖R^α + f_c^α‖ <= tol_residual · max(‖f_int‖, ‖M a‖, ‖f_c‖)` and `k >= 1` (so the
 //!    contact forces have been solved for at least once this step).
 //! 3. Otherwise each grain whose residual is above `KEEP_FACTORISATION` (or that has no
-//!    factorisation yet this step) factorises its effective stiffness; every grain with contact slots solves for its free increment
-//!    `K^{-1} R` and (after a new factorisation) the condensed compliance `[K^{-1}]_cc`
-//!    by unit loads at its slot DOFs (parallel).
+//!    factorisation yet this step) factorises its effective stiffness; every grain with
+//!    contact slots solves for its free increment `K^{-1} R` and (after a new
+//!    factorisation) the condensed compliance `[K^{-1}]_cc` by unit loads at its slot DOFs
+//!    (parallel).
 //! 4. NLGS over all contacts on the linearised relation `u_c = u_c^k + K^{-1}(R + f_c)`.
 //! 5. Each grain takes `u += K^{-1}(R + f_c)` with the new forces (parallel).
 //!
