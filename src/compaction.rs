@@ -16,9 +16,8 @@ use std::fmt::Write as _;
 /// stage does (before, the first was at ε ≈ 0.012 on `paper-mpm.yaml` and analyse read
 /// Φ(0) = 0.658 off it), and its `points_inside` tests a point the seeded circle clipped at
 /// the centre of the whole point with the same faces (`mpm::overlap`); 5: a surface-contact
-/// NLGS whose acceleration stalls goes on with plain sweeps (`NlgsParams::stall_window`); 6:
-/// an MPM grain within `KEEP_FACTORISATION` of convergence keeps its factorisation.
-pub const PACKING_VERSION: u32 = 6;
+/// NLGS whose acceleration stalls goes on with plain sweeps (`NlgsParams::stall_window`).
+pub const PACKING_VERSION: u32 = 5;
 
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.

@@ -8,7 +8,7 @@ use softgrain::mpm::grid::Grid;
 use softgrain::mpm::material::{Material, MaterialKind};
 use softgrain::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use softgrain::mpm::packing::{
-    KEEP_FACTORISATION, Packing, PackingParams, ROTATION_LIMIT, StepReport, TOP, rotation_ratio,
+    Packing, PackingParams, ROTATION_LIMIT, StepReport, TOP, rotation_ratio,
 };
 use softgrain::mpm::points::{Points, Stress};
 use softgrain::mpm::solve::{Solver, SolverParams};
@@ -34,7 +34,6 @@ fn params(friction: f64) -> PackingParams {
         wall_velocity: V,
         travel_per_step: 0.05,
         nlgs: NlgsParams::default(),
-        keep_factorisation: KEEP_FACTORISATION,
     }
 }
 
@@ -185,43 +184,6 @@ fn the_coupling_iteration_converges_and_its_forces_do_not_depend_on_the_toleranc
             assert!(
                 (f_loose[k] - f_tight[k]).abs() < 1e-3 * f_tight[k].abs(),
                 "{kind:?}: {f_loose:?} vs {f_tight:?}"
-            );
-        }
-    }
-}
-
-/// A grain near convergence keeps its factorisation (`KEEP_FACTORISATION`): the converged
-/// steps are those of full Newton to within the coupling tolerance, with fewer
-/// factorisations. Two grains pressed together with friction, both contact kinds: measured
-/// 21% fewer factorisations, the same coupling iterations, forces within 1e-8.
-#[test]
-fn keeping_a_nearly_converged_grains_factorisation_changes_only_the_cost() {
-    for kind in KINDS {
-        let nlgs = NlgsParams::for_packing(kind, 0.5);
-        let mut kept = stacked(0.5, nlgs, 0.2, kind);
-        let (r_kept, f_kept) = run(&mut kept, 0.03, 5);
-        let mut full = stacked(0.5, nlgs, 0.2, kind);
-        full.params.keep_factorisation = 0.0;
-        let (r_full, f_full) = run(&mut full, 0.03, 5);
-        let count = |r: &[StepReport]| -> (usize, usize) {
-            (
-                r.iter().map(|x| x.factorisations).sum(),
-                r.iter().map(|x| x.iterations).sum(),
-            )
-        };
-        let ((fk, ik), (ff, i_f)) = (count(&r_kept), count(&r_full));
-        assert!(
-            (fk as f64) < 0.9 * ff as f64,
-            "{kind:?}: {fk} factorisations kept, {ff} full"
-        );
-        assert!(
-            ik as f64 <= 1.05 * i_f as f64,
-            "{kind:?}: {ik} coupling iterations kept, {i_f} full"
-        );
-        for k in 0..5 {
-            assert!(
-                (f_kept[k] - f_full[k]).abs() < 1e-6 * f_full[k].abs(),
-                "{kind:?}: {f_kept:?} vs {f_full:?}"
             );
         }
     }

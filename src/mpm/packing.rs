@@ -8,19 +8,17 @@
 //!    forces `R^α(u)` (parallel). Converged when, for every grain,
 //!    `‖R^α + f_c^α‖ <= tol_residual · max(‖f_int‖, ‖M a‖, ‖f_c‖)` and `k >= 1` (so the
 //!    contact forces have been solved for at least once this step).
-//! 3. Otherwise each grain whose residual is above `KEEP_FACTORISATION` (or that has no
-//!    factorisation yet this step) factorises its effective stiffness; every grain with
-//!    contact slots solves for its free increment `K^{-1} R` and (after a new
-//!    factorisation) the condensed compliance `[K^{-1}]_cc` by unit loads at its slot DOFs
-//!    (parallel).
+//! 3. Otherwise each grain whose residual is not converged factorises its effective
+//!    stiffness; every grain with contact slots solves for its free increment
+//!    `K^{-1} R` and (after a new factorisation) the condensed compliance `[K^{-1}]_cc`
+//!    by unit loads at its slot DOFs (parallel).
 //! 4. NLGS over all contacts on the linearised relation `u_c = u_c^k + K^{-1}(R + f_c)`.
 //! 5. Each grain takes `u += K^{-1}(R + f_c)` with the new forces (parallel).
 //!
 //! With the small-strain law the step is linear apart from contact, so one iteration
 //! solves it and the second only confirms the residual; grains without contact and without
 //! load converge at `k = 0` and are never factorised. Grains far from convergence get a
-//! fresh factorisation per iteration (full Newton), those within `KEEP_FACTORISATION` of
-//! it keep theirs (modified Newton).
+//! fresh factorisation per iteration (full Newton), the others keep theirs (modified Newton).
 //! The contact forces are exact for the factorised operator, not the mass-only `W` of the
 //! staggered scheme A, whose contraction `ρ = (ωΔt/2)²/(1+(ωΔt/2)²)` is close to 1 at
 //! these steps (`ωΔt ≈ 30`).
@@ -195,23 +193,7 @@ pub struct PackingParams {
     /// Top wall travel per step over `h_g` (METHODS §6: 0.05–0.1).
     pub travel_per_step: f64,
     pub nlgs: NlgsParams,
-    /// A grain whose relative residual has fallen to this keeps its factorisation for the
-    /// rest of the step (modified Newton on the last digits, `KEEP_FACTORISATION`); 0 keeps
-    /// none before the grain has converged.
-    pub keep_factorisation: f64,
 }
-
-/// `PackingParams::keep_factorisation` of the packings: 100 times the coupling tolerance.
-/// Newton's path is the full one until a grain's residual is 1e-4 of its force scale,
-/// where its tangent has no more to give (the rest of the step moves it by about that
-/// fraction), so the last one or two iterations reuse the factorisation and compliance.
-/// Measured on `mpm-packing-small.yaml` (16 grains to ε = 0.35, seeds 7, 1, 2, 3, both
-/// frictions, session 37): factorisations -28% (μ = 0) and -31% (μ = 0.5), coupling
-/// iterations +1% and -1%, halved steps 19 → 15 and 9 → 4, the time 106 → 96 s and
-/// 114 → 97 s in all; σ(0.35) within the seeds' scatter (means -3% and +3%). Keeping
-/// it from a contraction of 0.03 per iteration instead saved more (-33%) but doubled
-/// the halved steps and moved σ by -9% without friction (`bench/README-packings.md`).
-pub const KEEP_FACTORISATION: f64 = 1e-4;
 
 /// What one step did, for the time series.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -434,7 +416,6 @@ impl Packing {
             wall_velocity: p.wall_velocity,
             travel_per_step: p.travel_per_step,
             nlgs: NlgsParams::default(),
-            keep_factorisation: KEEP_FACTORISATION,
         };
         let mut pk = Packing::new(
             params,
@@ -889,7 +870,7 @@ fn grain_free(
         return Ok(None);
     }
     let mut consistent = None;
-    if !(w.factored && w.rel <= tol.max(p.keep_factorisation)) {
+    if !(converged && w.factored) {
         w.solver.assemble_stiffness(&p.solver, &p.material, pts, dt);
         consistent = Some(w.solver.factorize(&p.solver, &p.material, pts, dt, step)?);
         w.factored = true;

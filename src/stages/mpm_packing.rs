@@ -23,7 +23,7 @@ use crate::io::vtk::{Data, Frame};
 use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use crate::mpm::overlap;
-use crate::mpm::packing::{KEEP_FACTORISATION, Packing, PackingParams, TOP};
+use crate::mpm::packing::{Packing, PackingParams, TOP};
 use crate::mpm::shape::ShapeKind;
 use crate::mpm::solve::SolverParams;
 use crate::pipeline::StageCtx;
@@ -126,7 +126,6 @@ fn params(
         wall_velocity,
         travel_per_step: time_step.map_or(TRAVEL_PER_STEP, |dt| dt * wall_velocity / g.cell),
         nlgs: NlgsParams::for_packing(g.contact, friction),
-        keep_factorisation: KEEP_FACTORISATION,
     }
 }
 
