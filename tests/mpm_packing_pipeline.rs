@@ -260,11 +260,11 @@ fn surface_contact_at_least_halves_the_overlap_of_a_small_mpm_packing() {
     let seeds = [7, 1, 2];
     let nodes: Vec<PackingCompacted> = seeds.iter().map(|&s| seeded(s, "node")).collect();
     let surfaces: Vec<PackingCompacted> = seeds.iter().map(|&s| seeded(s, "surface")).collect();
-    let mean = |runs: &[PackingCompacted], f: fn(&PackingCompacted) -> f64| {
+    let over_seeds = |runs: &[PackingCompacted], f: fn(&PackingCompacted) -> f64| {
         runs.iter().map(f).sum::<f64>() / runs.len() as f64
     };
     let compare = |what: &str, f: fn(&PackingCompacted) -> f64, ratio: f64| {
-        let (s, n) = (mean(&surfaces, f), mean(&nodes, f));
+        let (s, n) = (over_seeds(&surfaces, f), over_seeds(&nodes, f));
         assert!(
             s < ratio * n,
             "{what}: {s} with the surface contact, {n} with the node contact"
