@@ -287,6 +287,12 @@ const CASES: &[(&str, &str, &str, &str)] = &[
         "  diameter: [1.4e-3, 2.4e-3]\nanalyse:\n  final_window: 0.0\n",
         "p.yaml:6:3: analyse.final_window = 0.0: must be in (0, 1)",
     ),
+    (
+        GRAIN,
+        "final_strain: 0.3",
+        "final_strain: 0.3\n  friction: [0.0, high]",
+        "compact.friction = [0.0, high]: expected one value or a list of values (one case each)",
+    ),
     (GRAIN, "seed: 1", "seed: one", "g.yaml:2:"),
     (PACKING, "grains: 30", "grains: 2.5", "p.yaml:3:"),
     (

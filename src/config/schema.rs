@@ -485,7 +485,10 @@ impl Default for Analyse {
 
 /// A key that takes one value or a list of values (one case each).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "expected one value or a list of values (one case each)"
+)]
 pub enum OneOrMany<T> {
     One(T),
     Many(Vec<T>),
