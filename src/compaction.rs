@@ -16,8 +16,10 @@ use std::fmt::Write as _;
 /// stage does (before, the first was at ε ≈ 0.012 on `paper-mpm.yaml` and analyse read
 /// Φ(0) = 0.658 off it), and its `points_inside` tests a point the seeded circle clipped at
 /// the centre of the whole point with the same faces (`mpm::overlap`); 5: a surface-contact
-/// NLGS whose acceleration stalls goes on with plain sweeps (`NlgsParams::stall_window`).
-pub const PACKING_VERSION: u32 = 5;
+/// NLGS whose acceleration stalls goes on with plain sweeps (`NlgsParams::stall_window`); 6:
+/// the MPM NLGS sweeps its contacts grouped by grain pair and coloured (`mpm::colour`), and
+/// `PackingFigures` counts its sweeps.
+pub const PACKING_VERSION: u32 = 6;
 
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.
@@ -436,6 +438,9 @@ pub struct PackingFigures {
     /// (modified Newton for that grain). BPM: 0.
     pub factorisations: u64,
     pub indefinite: u64,
+    /// MPM: NLGS sweeps of the run, over all coupling iterations and failed attempts.
+    /// BPM: 0 (its sweeps per step are `iterations_mean`).
+    pub sweeps: u64,
 }
 
 /// Grain coordination from the list of grain pairs in contact (each pair once, any order,

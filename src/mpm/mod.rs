@@ -57,6 +57,7 @@
 //!   counted in `RunStats::halvings`) before the error is returned.
 
 pub mod analytic;
+pub mod colour;
 pub mod connect;
 pub mod contact;
 pub mod driver;

@@ -110,6 +110,7 @@
 //! time budget, and even it exceeds 60 min for the two MPM cases once the later
 //! iteration counts are included. The small pipeline uses 0.12.
 
+use super::colour::{Schedule, order};
 use super::contact::Wall;
 use super::error::MpmError;
 use super::grid::Grid;
@@ -287,6 +288,7 @@ struct Workspace {
     grains: Vec<GrainWork>,
     contacts: Vec<NodeContact>,
     slots: Vec<Slots>,
+    schedule: Schedule,
     backup: Vec<Points>,
     anderson: Anderson,
 }
@@ -617,6 +619,7 @@ impl Packing {
                 &mut ws.slots,
             );
         }
+        order(&mut ws.contacts, grains.len(), &mut ws.schedule);
         nc::start_collisions(
             &mut ws.contacts,
             &ws.slots,
@@ -721,6 +724,7 @@ impl Packing {
             let solve = nc::nlgs(
                 &mut ws.contacts,
                 &mut ws.slots,
+                &ws.schedule,
                 p.nlgs,
                 floor,
                 &mut ws.anderson,

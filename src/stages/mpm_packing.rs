@@ -267,6 +267,7 @@ pub fn compact(
         f.halvings += report.halvings;
         f.factorisations += report.factorisations as u64;
         f.indefinite += report.indefinite as u64;
+        f.sweeps += report.sweeps as u64;
         st.touched_top |= walls[TOP].contacts > 0;
         let strain = st.pk.strain();
         bar.set((strain * 1e4) as u64, format!("ε = {strain:.3}"));
