@@ -815,59 +815,80 @@ fn sweep_colour<'p>(
     parts: &'p mut Vec<(f64, f64)>,
 ) -> &'p [(f64, f64)] {
     parts.clear();
-    let (first, last) = (bounds[0], bounds[bounds.len() - 1]);
     let threads = rayon::current_num_threads() > 1;
-    if !(disjoint && threads && last - first >= PARALLEL_MIN && bounds.len() > 2) {
-        for w in bounds.windows(2) {
-            let mut part = (0.0, 0.0);
-            for c in &mut contacts[w[0]..w[1]] {
-                let mut sides = Sides::of(slots, c);
-                let (dc, dt) = local(c, &mut sides);
-                part.0 += dc;
-                part.1 += dt;
-            }
-            parts.push(part);
+    let contacts_here = bounds[bounds.len() - 1] - bounds[0];
+    if disjoint && threads && contacts_here >= PARALLEL_MIN && bounds.len() > 2 {
+        // every pair takes its grains' slots out first (no two share a grain here)
+        let mut work: Vec<Pair> = pairs(contacts, bounds)
+            .map(|own| Pair::take(own, slots))
+            .collect();
+        work.par_iter_mut().map(Pair::sweep).collect_into_vec(parts);
+        work.into_iter().for_each(|pair| pair.give_back(slots));
+    } else {
+        // one pair at a time, its slots given back before the next takes its own
+        for own in pairs(contacts, bounds) {
+            let mut pair = Pair::take(own, slots);
+            parts.push(pair.sweep());
+            pair.give_back(slots);
         }
-        return parts;
     }
-    // Each pair takes its grains' slots out of `slots` (no two pairs here share a grain),
-    // sweeps them on any thread and gives them back.
-    let mut rest = &mut contacts[first..last];
-    let mut work = Vec::with_capacity(bounds.len() - 1);
-    for w in bounds.windows(2) {
+    parts
+}
+
+/// Each pair's contacts, for group boundaries `bounds` (`sweep_colour`).
+fn pairs<'c>(
+    contacts: &'c mut [NodeContact],
+    bounds: &'c [usize],
+) -> impl Iterator<Item = &'c mut [NodeContact]> + 'c {
+    let mut rest = &mut contacts[bounds[0]..bounds[bounds.len() - 1]];
+    bounds.windows(2).map(move |w| {
         let (own, tail) = std::mem::take(&mut rest).split_at_mut(w[1] - w[0]);
         rest = tail;
-        let c = &own[0];
+        own
+    })
+}
+
+/// A grain pair's contacts with its grains' slots, taken out of the packing's so that the
+/// pairs of one colour can be swept on any thread.
+struct Pair<'c> {
+    contacts: &'c mut [NodeContact],
+    a: Slots,
+    b: Option<Slots>,
+}
+
+impl<'c> Pair<'c> {
+    fn take(contacts: &'c mut [NodeContact], slots: &mut [Slots]) -> Self {
+        let c = &contacts[0];
         let a = std::mem::take(&mut slots[c.a]);
         let b = match c.partner {
             Partner::Grain(b) => Some(std::mem::take(&mut slots[b])),
             Partner::Wall(_) => None,
         };
-        work.push((own, a, b));
+        Pair { contacts, a, b }
     }
-    work.par_iter_mut()
-        .map(|(own, a, b)| {
-            let mut part = (0.0, 0.0);
-            for c in own.iter_mut() {
-                let mut sides = Sides {
-                    a: &mut *a,
-                    b: b.as_mut(),
-                };
-                let (dc, dt) = local(c, &mut sides);
-                part.0 += dc;
-                part.1 += dt;
-            }
-            part
-        })
-        .collect_into_vec(parts);
-    for (own, a, b) in work {
-        let c = &own[0];
-        slots[c.a] = a;
-        if let (Partner::Grain(g), Some(b)) = (c.partner, b) {
+
+    /// One sweep over the pair's contacts; returns (Σ|Δf|, Σ|f|).
+    fn sweep(&mut self) -> (f64, f64) {
+        let mut part = (0.0, 0.0);
+        for c in self.contacts.iter_mut() {
+            let mut sides = Sides {
+                a: &mut self.a,
+                b: self.b.as_mut(),
+            };
+            let (dc, dt) = local(c, &mut sides);
+            part.0 += dc;
+            part.1 += dt;
+        }
+        part
+    }
+
+    fn give_back(self, slots: &mut [Slots]) {
+        let c = &self.contacts[0];
+        slots[c.a] = self.a;
+        if let (Partner::Grain(g), Some(b)) = (c.partner, self.b) {
             slots[g] = b;
         }
     }
-    parts
 }
 
 /// The local solve at one contact: the projection of `f_n`, then of `f_t` onto

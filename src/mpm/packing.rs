@@ -105,8 +105,9 @@
 //! (sequential), triangular solves 15 %, assembly 19 %. The paper's scene (300 grains,
 //! L ≈ h0 ≈ 36 mm, ε = 0.5: 14 mm of wall travel at 0.05 h_g per step) would need, per
 //! case on one core, ≥ 21 h at Δr/R = 0.029 (5,300 steps; ~5.5 GB), ≥ 3.1 h at 0.05
-//! (3,100 steps; ~1.9 GB) and ≥ 21 min at 0.1 (1,540 steps; ~0.5 GB); two cores give at
-//! most 1.6× (the NLGS is sequential). Only Δr/R ≈ 0.1 fits memory and comes near the
+//! (3,100 steps; ~1.9 GB) and ≥ 21 min at 0.1 (1,540 steps; ~0.5 GB); two cores gave at
+//! most 1.6× while the NLGS was sequential (since session 38 it runs the grain pairs of one
+//! colour in parallel, `super::colour`). Only Δr/R ≈ 0.1 fits memory and comes near the
 //! time budget, and even it exceeds 60 min for the two MPM cases once the later
 //! iteration counts are included. The small pipeline uses 0.12.
 
