@@ -15,6 +15,10 @@ pub struct Schedule {
     colours: Vec<usize>,
     /// Whether the last colour is the serial class (its groups may share grains).
     serial: bool,
+    /// `order`'s working arrays, kept from step to step: the colours taken at each grain,
+    /// and each contact with its colour.
+    used: Vec<u64>,
+    keyed: Vec<(u32, NodeContact)>,
 }
 
 impl Schedule {
@@ -39,8 +43,11 @@ const SERIAL: u32 = 64;
 pub fn order(contacts: &mut [NodeContact], grains: usize, schedule: &mut Schedule) {
     let pair = |c: &NodeContact| (c.a, c.partner);
     contacts.sort_by_key(pair);
-    let mut used = vec![0u64; grains];
-    let mut colour = Vec::with_capacity(contacts.len());
+    let used = &mut schedule.used;
+    used.clear();
+    used.resize(grains, 0);
+    let keyed = &mut schedule.keyed;
+    keyed.clear();
     let mut start = 0;
     while start < contacts.len() {
         let key = pair(&contacts[start]);
@@ -57,13 +64,12 @@ pub fn order(contacts: &mut [NodeContact], grains: usize, schedule: &mut Schedul
                 used[b] |= 1 << c;
             }
         }
-        colour.extend(std::iter::repeat_n(c, end - start));
+        keyed.extend(contacts[start..end].iter().map(|&contact| (c, contact)));
         start = end;
     }
     // stable: within a colour the pairs keep their order, and within a pair its contacts
-    let mut keyed: Vec<(u32, NodeContact)> =
-        colour.into_iter().zip(contacts.iter().copied()).collect();
     keyed.sort_by_key(|(c, _)| *c);
+    let keyed = &schedule.keyed;
     schedule.groups.clear();
     schedule.colours.clear();
     schedule.serial = keyed.last().is_some_and(|(c, _)| *c == SERIAL);

@@ -17,8 +17,9 @@
 //!
 //! With the small-strain law the step is linear apart from contact, so one iteration
 //! solves it and the second only confirms the residual; grains without contact and without
-//! load converge at `k = 0` and are never factorised. Grains far from convergence get a
-//! fresh factorisation per iteration (full Newton), the others keep theirs (modified Newton).
+//! load converge at `k = 0` and are never factorised. Grains not yet converged get a fresh
+//! factorisation per iteration (full Newton); converged grains that still carry contacts
+//! keep theirs while their neighbours converge.
 //! The contact forces are exact for the factorised operator, not the mass-only `W` of the
 //! staggered scheme A, whose contraction `ρ = (ωΔt/2)²/(1+(ωΔt/2)²)` is close to 1 at
 //! these steps (`ωΔt ≈ 30`).
