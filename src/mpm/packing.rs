@@ -124,6 +124,7 @@ use crate::cd::anderson::Anderson;
 use nalgebra::{Matrix2, Vector2};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::time::Instant;
 
 /// Most levels of halving of a step (the smallest sub-step is `Δt/2^MAX_HALVINGS`). Splits
 /// before a try and halvings after a failure share them: a step split twice for its
@@ -293,6 +294,51 @@ struct Workspace {
     schedule: Schedule,
     backup: Vec<Points>,
     anderson: Anderson,
+    phases: Phases,
+}
+
+/// Wall seconds this process's steps spent in each part of the scheme (module doc), failed
+/// attempts included: where a run's time goes, for `stage.json`. Not checkpointed (it
+/// differs from run to run), so a resumed run counts its own steps only.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Phases {
+    /// 1: windows, P2G and the Newmark predictor.
+    pub begin: f64,
+    /// 1: contact detection, the colour order, start-of-step collisions, warm start.
+    pub detect: f64,
+    /// 2: the grains' residuals (internal forces) and the convergence test.
+    pub residual: f64,
+    /// 3: factorisations, free increments and condensed compliances.
+    pub factorise: f64,
+    /// 4: the NLGS over all contacts.
+    pub contact: f64,
+    /// 5: the increments with the new contact forces.
+    pub update: f64,
+    /// G2P, wall forces and the contact records.
+    pub finish: f64,
+}
+
+impl Phases {
+    /// The parts by name, in the scheme's order.
+    pub fn named(&self) -> [(&'static str, f64); 7] {
+        [
+            ("begin", self.begin),
+            ("detect", self.detect),
+            ("residual", self.residual),
+            ("factorise", self.factorise),
+            ("contact", self.contact),
+            ("update", self.update),
+            ("finish", self.finish),
+        ]
+    }
+}
+
+/// Seconds since `clock`, which is set to now.
+pub fn lap(clock: &mut Instant) -> f64 {
+    let now = Instant::now();
+    let seconds = (now - *clock).as_secs_f64();
+    *clock = now;
+    seconds
 }
 
 impl Clone for Workspace {
@@ -472,6 +518,11 @@ impl Packing {
         self.grains.iter().map(Points::momentum).sum()
     }
 
+    /// Where this process's steps spent their time so far.
+    pub fn phases(&self) -> Phases {
+        self.workspace.phases
+    }
+
     pub fn kinetic_energy(&self) -> f64 {
         self.grains.iter().map(Points::kinetic_energy).sum()
     }
@@ -583,6 +634,7 @@ impl Packing {
         step: u64,
         report: &mut StepReport,
     ) -> Result<(), MpmError> {
+        let mut clock = Instant::now();
         let p = &self.params;
         let (grid, grains) = (&self.grid, &self.grains);
         ws.grains.resize_with(grains.len(), GrainWork::default);
@@ -597,6 +649,7 @@ impl Packing {
                 w.factored = false;
                 w.solver.begin(&p.solver, &w.window, pts, dt, step)
             })?;
+        ws.phases.begin += lap(&mut clock);
         {
             let views: Vec<GrainView> = ws
                 .grains
@@ -653,6 +706,7 @@ impl Packing {
             .chunk_by(|a, b| a == b)
             .filter(|run| run.len() > 1)
             .count();
+        ws.phases.detect += lap(&mut clock);
 
         let tol = p.solver.newton.tol_residual;
         let floor = p.material.young * grid.h * 1e-6;
@@ -697,6 +751,7 @@ impl Packing {
                 w.rel = rs.sqrt() / w.scale.max(fs.sqrt()).max(floor);
                 worst = worst.max(w.rel);
             }
+            ws.phases.residual += lap(&mut clock);
             if worst <= tol && (it > 0 || ws.contacts.is_empty()) {
                 report.residual = report.residual.max(last_solve.residual);
                 report.kept_unconverged += usize::from(!last_solve.converged);
@@ -722,6 +777,7 @@ impl Packing {
                 .try_reduce(|| (0, 0), |a, b| Ok((a.0 + b.0, a.1 + b.1)))?;
             report.factorisations += factorised;
             report.indefinite += indefinite;
+            ws.phases.factorise += lap(&mut clock);
             nc::load_slots(&ws.contacts, &mut ws.slots);
             let solve = nc::nlgs(
                 &mut ws.contacts,
@@ -734,6 +790,7 @@ impl Packing {
             report.sweeps += solve.sweeps;
             report.nlgs_unconverged += usize::from(!solve.converged);
             last_solve = solve;
+            ws.phases.contact += lap(&mut clock);
             // Update with the new forces.
             {
                 let mut fc: Vec<Vec<f64>> = ws
@@ -778,6 +835,7 @@ impl Packing {
                 })?;
             // counted as done, so that a failed attempt's iterations count too
             report.iterations += 1;
+            ws.phases.update += lap(&mut clock);
         }
         if !converged {
             return Err(MpmError::NotConverged {
@@ -833,6 +891,7 @@ impl Packing {
         for w in self.walls.iter_mut() {
             w.origin += w.velocity * dt;
         }
+        ws.phases.finish += lap(&mut clock);
         Ok(())
     }
 

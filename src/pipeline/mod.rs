@@ -15,6 +15,7 @@ use crate::stages::{self, StageState};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -106,6 +107,8 @@ pub struct StageCtx {
     /// Lets a BPM grain run above the compact stage's 0.5 t0 step limit: only the bench's
     /// stability map sets it, to find where the scheme really fails.
     pub beyond_step_limit: bool,
+    /// Wall seconds of this run by part of the stage's work (`note_time`), for `stage.json`.
+    timings: Mutex<Vec<(String, f64)>>,
 }
 
 impl StageCtx {
@@ -121,6 +124,7 @@ impl StageCtx {
             continuation: None,
             quiet: true,
             beyond_step_limit: false,
+            timings: Mutex::default(),
         }
     }
 
@@ -188,6 +192,14 @@ impl StageCtx {
             return Ok(());
         }
         store::save(path, state)
+    }
+
+    /// Notes the wall seconds this run of the stage spent on one part of its work;
+    /// `stage.json` lists them by name as `timings_s` (a run resumed from a snapshot counts
+    /// its own work only).
+    pub fn note_time(&self, part: &str, seconds: f64) {
+        let mut t = self.timings.lock().expect("no panic while held");
+        t.push((part.to_string(), seconds));
     }
 
     /// Wall seconds spent on this stage: this run's and those of the runs it resumed.
@@ -305,6 +317,7 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
             continuation: continuation_path(&root, node),
             quiet: opts.quiet,
             beyond_step_limit: false,
+            timings: Mutex::default(),
         };
         std::fs::create_dir_all(&ctx.dir).map_err(io_err(&ctx.dir))?;
         let upstream: Vec<&StageState> = node
@@ -335,6 +348,15 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         if total > seconds {
             figures["wall_s_last_run"] = seconds.into();
         }
+        let timings = ctx.timings.lock().expect("no panic while held");
+        if !timings.is_empty() {
+            let parts: serde_json::Map<String, serde_json::Value> = timings
+                .iter()
+                .map(|(k, v)| (k.clone(), (*v).into()))
+                .collect();
+            figures["timings_s"] = parts.into();
+        }
+        drop(timings);
         let json = serde_json::to_vec_pretty(&figures).expect("json");
         ctx.write("stage.json", &json).map_err(io_err(&ctx.dir))?;
         // The checkpoint last: it is the commit point of the node.

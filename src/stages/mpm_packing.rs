@@ -23,12 +23,13 @@ use crate::io::vtk::{Data, Frame};
 use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use crate::mpm::overlap;
-use crate::mpm::packing::{Packing, PackingParams, TOP};
+use crate::mpm::packing::{Packing, PackingParams, TOP, lap};
 use crate::mpm::shape::ShapeKind;
 use crate::mpm::solve::SolverParams;
 use crate::pipeline::StageCtx;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
+use std::time::Instant;
 
 /// Top wall travel per step over the cell size when `compact.time_step` is not given
 /// (METHODS §6: 0.05–0.1 h_g).
@@ -229,12 +230,18 @@ pub fn compact(
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
     let every = p.output.every_for(Method::Mpm).max(1);
+    // wall seconds of this run outside the steps: the per-step measures, the rows and
+    // frames, the snapshots (`stage.json`'s `timings_s`, with the steps' own parts)
+    let (mut measures, mut rows, mut snapshots) = (0.0, 0.0, 0.0);
+    let mut clock = Instant::now();
     // the state at ε = 0 is the first row, as in the BPM stage (its Φ is Φ0 to round-off)
     if st.rows.is_empty() {
         record(p, ctx, &mut st, mu).map_err(io)?;
     }
+    rows += lap(&mut clock);
     while st.pk.strain() < c.final_strain - 1e-12 {
         let report = st.pk.step().map_err(|e| e.to_string())?;
+        lap(&mut clock); // the step times its own parts (`Packing::phases`)
         let walls = &st.pk.walls;
         for (k, w) in [0, TOP, 1, 2].into_iter().enumerate() {
             st.forces[k] += walls[w].normal_force();
@@ -244,6 +251,7 @@ pub fn compact(
         let area = st.pk.width * st.pk.height();
         st.stress -= st.pk.stress_integral()[(1, 1)] / area;
         st.lever += st.pk.contact_moments().1[(1, 1)] / area;
+        measures += lap(&mut clock);
         st.since += 1;
         if report.min_gap < st.min_gap {
             st.min_gap = report.min_gap;
@@ -275,12 +283,14 @@ pub fn compact(
         if steps % every == 0 {
             record(p, ctx, &mut st, mu).map_err(io)?;
         }
+        rows += lap(&mut clock);
         if p.output.snapshot_every > 0 && steps % p.output.snapshot_every == 0 {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
             // the rows so far, readable while the run goes on (as the BPM stage does)
             ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
                 .map_err(io)?;
         }
+        snapshots += lap(&mut clock);
         if ctx.interrupted() {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
@@ -290,6 +300,17 @@ pub fn compact(
         .map_err(io)?;
     if st.since > 0 {
         record(p, ctx, &mut st, mu).map_err(io)?;
+    }
+    rows += lap(&mut clock);
+    for (part, seconds) in st.pk.phases().named() {
+        ctx.note_time(&format!("step_{part}"), seconds);
+    }
+    for (part, seconds) in [
+        ("measures", measures),
+        ("rows", rows),
+        ("snapshots", snapshots),
+    ] {
+        ctx.note_time(part, seconds);
     }
     bar.finish();
     ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
