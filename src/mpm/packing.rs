@@ -108,9 +108,11 @@
 //! case on one core, ≥ 21 h at Δr/R = 0.029 (5,300 steps; ~5.5 GB), ≥ 3.1 h at 0.05
 //! (3,100 steps; ~1.9 GB) and ≥ 21 min at 0.1 (1,540 steps; ~0.5 GB); two cores gave at
 //! most 1.6× while the NLGS was sequential (since session 38 it runs the grain pairs of one
-//! colour in parallel, `super::colour`). Only Δr/R ≈ 0.1 fits memory and comes near the
+//! colour in parallel, `super::colour`; the paper's μ = 0 case then took 70 min on two
+//! threads against 92-95 CPU-min on one). Only Δr/R ≈ 0.1 fits memory and comes near the
 //! time budget, and even it exceeds 60 min for the two MPM cases once the later
-//! iteration counts are included. The small pipeline uses 0.12.
+//! iteration counts are included. The small pipeline uses 0.12. Each run's split of its
+//! time over the parts of the step is in its `stage.json` (`Phases`, `timings_s`).
 
 use super::colour::{Schedule, order};
 use super::contact::Wall;
