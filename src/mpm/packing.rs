@@ -302,7 +302,7 @@ struct Workspace {
 /// Wall seconds this process's steps spent in each part of the scheme (module doc), failed
 /// attempts included: where a run's time goes, for `stage.json`. Not checkpointed (it
 /// differs from run to run), so a resumed run counts its own steps only.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Phases {
     /// 1: windows, P2G and the Newmark predictor.
     pub begin: f64,

@@ -348,15 +348,16 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
         if total > seconds {
             figures["wall_s_last_run"] = seconds.into();
         }
-        let timings = ctx.timings.lock().expect("no panic while held");
-        if !timings.is_empty() {
-            let parts: serde_json::Map<String, serde_json::Value> = timings
-                .iter()
-                .map(|(k, v)| (k.clone(), (*v).into()))
-                .collect();
-            figures["timings_s"] = parts.into();
+        {
+            let timings = ctx.timings.lock().expect("no panic while held");
+            if !timings.is_empty() {
+                let parts: serde_json::Map<String, serde_json::Value> = timings
+                    .iter()
+                    .map(|(k, v)| (k.clone(), (*v).into()))
+                    .collect();
+                figures["timings_s"] = parts.into();
+            }
         }
-        drop(timings);
         let json = serde_json::to_vec_pretty(&figures).expect("json");
         ctx.write("stage.json", &json).map_err(io_err(&ctx.dir))?;
         // The checkpoint last: it is the commit point of the node.
