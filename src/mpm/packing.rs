@@ -37,10 +37,13 @@
 //!   linearisation errs by about that fraction). NLGS tolerance 1e-6 (`NlgsParams`); the
 //!   forces agree with those at 1e-10 to 1e-3 (tested). Under load the convergence is
 //!   linear, by 6-50 times per iteration (5-8 per sub-step on 16 grains past ε = 0.3):
-//!   the symmetric tangent leaves out the spin term of the rotated start-of-step stress,
-//!   which is not symmetric (`super::solve`'s tangent test), and errs by 1.5-5% along the
-//!   Newton increments there (finite differences, session 40). The NLGS's accuracy is not
-//!   what limits it: at 1e-8 the same run took 9.7 iterations per step against 9.0.
+//!   the tangent is symmetrised for Cholesky (`super::material`: the `σ ⊗ 1` term), which
+//!   leaves out a part of order `|σ_dev|/E` (`super::solve`'s tangent test) and errs by
+//!   1.5-5% along the Newton increments there (finite differences, session 40). The
+//!   NLGS's accuracy is not what limits it: at 1e-8 the same run took 9.7 iterations per
+//!   step against 9.0. Correcting the grains' increments for the left-out part (one or two
+//!   sweeps with the symmetric factor) while the compliances stay symmetric made it worse
+//!   (`bench/README-packings.md`, "Why the coupling converges linearly").
 //! * **Grids**: one common grid; each grain's "proper mesh" is the window of it covering
 //!   its points plus 3 cells, so the meshes coincide (METHODS §4.1). The cell is
 //!   `h_g = 2 Δr` with `Δr = resolution × mean grain radius` (the packing's grid is not
