@@ -15,3 +15,4 @@ pub mod pipeline;
 pub mod rng;
 pub mod shortcuts;
 pub mod stages;
+pub mod timing;

@@ -229,3 +229,45 @@ fn from_a_dense_start_a_bpm_packing_shows_the_papers_trends_past_jamming() {
     let (s0, s5) = (scale(&smooth, "bpm-mu0"), scale(&rough, "bpm-mu0.5"));
     assert!((s0 / s5 - 1.0).abs() < 0.3, "σ0/α {s0} against {s5} Pa");
 }
+
+/// `stage.json` says where the compaction's time went: the parts of the contact-dynamics
+/// step (`Scene::phases`) and of the recording, none negative, the solve not empty, and
+/// together no more than the stage's wall time.
+#[test]
+fn the_compact_stage_reports_its_time_by_part_of_the_step() {
+    let dir = common::temp_dir("bpm-packing-timings");
+    let file = common::write(&dir, "p.yaml", PACK);
+    common::run_to_state(&dir, &file, &["compact.final_strain=0.05"]);
+    let cases: Vec<_> = std::fs::read_dir(dir.join("p/compact"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path().join("stage.json"))
+        .filter(|p| p.exists())
+        .collect();
+    assert_eq!(cases.len(), 1, "{cases:?}");
+    let stage: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&cases[0]).unwrap()).unwrap();
+    let timings = stage["timings_s"].as_object().expect("timings_s");
+    let mut parts = [
+        "step_detect",
+        "step_free",
+        "step_solve",
+        "step_finish",
+        "rows",
+        "snapshots",
+    ];
+    let mut keys: Vec<&str> = timings.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    parts.sort_unstable();
+    assert_eq!(keys, parts);
+    let seconds = |k: &str| timings[k].as_f64().unwrap();
+    assert!(parts.iter().all(|k| seconds(k) >= 0.0), "{timings:?}");
+    assert!(seconds("step_solve") > 0.0 && seconds("step_detect") > 0.0);
+    let sum: f64 = parts.iter().map(|k| seconds(k)).sum();
+    let wall = stage["wall_s"].as_f64().unwrap();
+    assert!(
+        sum <= wall && sum > 0.5 * wall,
+        "parts {sum} s, stage {wall} s"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

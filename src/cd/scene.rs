@@ -5,8 +5,10 @@ use super::sleep::{Sleep, SleepParams};
 use super::{Bodies, Contact, InteractionLaw, LawTable, PAR_MIN, Partner};
 use crate::geom::{V2, Wall};
 use crate::rng::Rng;
+use crate::timing::lap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::time::Instant;
 
 /// Time-stepping settings of the contact-dynamics engine.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -107,6 +109,36 @@ pub struct Scene<L> {
     detection: Detection,
     #[serde(skip)]
     pub(super) energy: EnergyGuard,
+    #[serde(skip)]
+    phases: Phases,
+}
+
+/// Wall seconds this process's steps spent in each part of a step, for `stage.json`'s
+/// `timings_s`. Not serialised (it differs from run to run): a resumed run counts its own
+/// steps only.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Phases {
+    /// 3: the Verlet list, the narrow phase, the warm start and waking sleepers.
+    pub detect: f64,
+    /// 1-2: free velocities (gravity, the laws' smooth forces), the warm-start impulses
+    /// applied and the contacts chosen for the solve.
+    pub free: f64,
+    /// 4: the NLGS (Anderson, islands), resumed where left-out contacts would close.
+    pub solve: f64,
+    /// 5: positions, walls, wall forces, the overlap guard, sleep and the energy check.
+    pub finish: f64,
+}
+
+impl Phases {
+    /// The parts by name, in the step's order.
+    pub fn named(&self) -> [(&'static str, f64); 4] {
+        [
+            ("detect", self.detect),
+            ("free", self.free),
+            ("solve", self.solve),
+            ("finish", self.finish),
+        ]
+    }
 }
 
 impl<L: InteractionLaw> Scene<L> {
@@ -136,11 +168,18 @@ impl<L: InteractionLaw> Scene<L> {
             scratch: nlgs::Scratch::default(),
             detection: Detection::default(),
             energy: EnergyGuard::default(),
+            phases: Phases::default(),
         }
+    }
+
+    /// Where this process's steps spent their time.
+    pub fn phases(&self) -> Phases {
+        self.phases
     }
 
     /// Advances one time step.
     pub fn step(&mut self) -> Result<StepReport, CdError> {
+        let mut clock = Instant::now();
         let h = self.params.dt;
         let theta = self.params.theta;
         self.energy.start(&self.bodies);
@@ -203,6 +242,7 @@ impl<L: InteractionLaw> Scene<L> {
             };
             self.sleep.wake(&contacts, reach, &wall_vel);
         }
+        self.phases.detect += lap(&mut clock);
         let sleep = &self.sleep;
 
         // 1-2. Smooth forces (gravity, explicit law forces) and free velocities.
@@ -250,6 +290,7 @@ impl<L: InteractionLaw> Scene<L> {
         self.order.clear();
         self.order
             .extend((0..contacts.len() as u32).filter(|&k| in_solve[k as usize]));
+        self.phases.free += lap(&mut clock);
         let data = nlgs::StepData {
             laws: &self.laws,
             wall_vel: &wall_vel,
@@ -291,6 +332,7 @@ impl<L: InteractionLaw> Scene<L> {
             }
             resumed += 1;
         }
+        self.phases.solve += lap(&mut clock);
 
         // 5. q⁺ = q⁻ + h [(1-θ) V⁻ + θ V⁺].
         let b = &mut self.bodies;
@@ -373,6 +415,7 @@ impl<L: InteractionLaw> Scene<L> {
         self.check_energy()?;
         self.time += h;
         self.steps += 1;
+        self.phases.finish += lap(&mut clock);
         let n_solved = self.order.len();
         Ok(StepReport {
             nlgs: report,

@@ -131,6 +131,7 @@ use super::node_contact::{self as nc, GrainView, NlgsParams, NodeContact, Partne
 use super::points::Points;
 use super::solve::{Solver, SolverParams};
 use crate::cd::anderson::Anderson;
+use crate::timing::lap;
 use nalgebra::{Matrix2, Vector2};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -341,14 +342,6 @@ impl Phases {
             ("finish", self.finish),
         ]
     }
-}
-
-/// Seconds since `clock`, which is set to now.
-pub fn lap(clock: &mut Instant) -> f64 {
-    let now = Instant::now();
-    let seconds = (now - *clock).as_secs_f64();
-    *clock = now;
-    seconds
 }
 
 impl Clone for Workspace {

@@ -31,8 +31,10 @@ use crate::config::{Compact, Method, Pipeline, defaults};
 use crate::geom::{V2, Wall};
 use crate::packing;
 use crate::pipeline::StageCtx;
+use crate::timing::lap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::time::Instant;
 
 /// Wall indices: floor, left, right from `packing::box_walls`, then the moving top.
 const FLOOR: usize = 0;
@@ -183,11 +185,16 @@ pub fn run(
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
     let every = p.output.every.max(1);
+    // where the time goes, for stage.json (the step times its own parts, `Scene::phases`)
+    let (mut rows, mut snapshots) = (0.0, 0.0);
+    let mut clock = Instant::now();
     if st.rows.is_empty() {
         record(p, ctx, &mut st).map_err(io)?;
     }
+    rows += lap(&mut clock);
     while strain(&st) < c.final_strain {
         let r = st.scene.step().map_err(|e| e.to_string())?;
+        clock = Instant::now();
         let h = st.scene.params.dt;
         for (k, imp) in st.impulse.iter_mut().enumerate() {
             *imp += st.scene.wall_force[k] * h;
@@ -210,20 +217,29 @@ pub fn run(
                 format!("ε = {strain:.3}, {} sweeps/step", r.nlgs.iterations),
             );
         }
+        rows += lap(&mut clock);
         if p.output.snapshot_every > 0 && st.scene.steps % p.output.snapshot_every == 0 {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
             ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
                 .map_err(io)?;
         }
+        snapshots += lap(&mut clock);
         if ctx.interrupted() {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
         }
     }
     ctx.save_continuation(&st, strain).map_err(io)?;
+    snapshots += lap(&mut clock);
     if st.since_record > 0 {
         record(p, ctx, &mut st).map_err(io)?;
     }
+    rows += lap(&mut clock);
+    for (part, seconds) in st.scene.phases().named() {
+        ctx.note_time(&format!("step_{part}"), seconds);
+    }
+    ctx.note_time("rows", rows);
+    ctx.note_time("snapshots", snapshots);
     bar.finish();
     let (done, summary) = finish(ctx, st)?;
     Ok((done, compaction::continued(summary, continued)))

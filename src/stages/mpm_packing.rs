@@ -23,10 +23,11 @@ use crate::io::vtk::{Data, Frame};
 use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use crate::mpm::overlap;
-use crate::mpm::packing::{Packing, PackingParams, TOP, lap};
+use crate::mpm::packing::{Packing, PackingParams, TOP};
 use crate::mpm::shape::ShapeKind;
 use crate::mpm::solve::SolverParams;
 use crate::pipeline::StageCtx;
+use crate::timing::lap;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -298,6 +299,7 @@ pub fn compact(
     }
     ctx.save_continuation(&st, |s: &Running| s.pk.strain())
         .map_err(io)?;
+    snapshots += lap(&mut clock);
     if st.since > 0 {
         record(p, ctx, &mut st, mu).map_err(io)?;
     }
