@@ -110,3 +110,24 @@ pub fn lattice(r: f64, nx: usize, ny: usize) -> softgrain::cd::Bodies {
     }
     bodies
 }
+
+/// Checks a compaction's `stage.json` (`stage`) says where its time went: `timings_s` has
+/// exactly the keys `parts`, none negative, those of `busy` above zero, and together no
+/// more than the stage's wall time nor less than half of it.
+pub fn check_timings(stage: &serde_json::Value, parts: &[&str], busy: &[&str]) {
+    let timings = stage["timings_s"].as_object().expect("timings_s");
+    let mut keys: Vec<&str> = timings.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    let mut expected = parts.to_vec();
+    expected.sort_unstable();
+    assert_eq!(keys, expected);
+    let seconds = |k: &str| timings[k].as_f64().unwrap();
+    assert!(parts.iter().all(|k| seconds(k) >= 0.0), "{timings:?}");
+    assert!(busy.iter().all(|k| seconds(k) > 0.0), "{timings:?}");
+    let sum: f64 = parts.iter().map(|k| seconds(k)).sum();
+    let wall = stage["wall_s"].as_f64().unwrap();
+    assert!(
+        sum <= wall && sum > 0.5 * wall,
+        "parts {sum} s, stage {wall} s"
+    );
+}
