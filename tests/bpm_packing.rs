@@ -238,23 +238,10 @@ fn the_compact_stage_reports_its_time_by_part_of_the_step() {
     let dir = common::temp_dir("bpm-packing-timings");
     let file = common::write(&dir, "p.yaml", PACK);
     common::run_to_state(&dir, &file, &["compact.final_strain=0.05"]);
-    let cases: Vec<_> = std::fs::read_dir(dir.join("p/compact"))
-        .unwrap()
-        .flatten()
-        .map(|e| e.path().join("stage.json"))
-        .filter(|p| p.exists())
-        .collect();
-    assert_eq!(cases.len(), 1, "{cases:?}");
-    let stage: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&cases[0]).unwrap()).unwrap();
-    let parts = [
-        "step_detect",
-        "step_free",
-        "step_solve",
-        "step_finish",
-        "rows",
-        "snapshots",
-    ];
-    common::check_timings(&stage, &parts, &["step_solve", "step_detect"]);
+    common::check_timings(
+        &common::compact_stage_json(&dir, "p"),
+        &common::CD_TIMINGS,
+        &["step_solve", "step_detect"],
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

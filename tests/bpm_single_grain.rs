@@ -7,10 +7,11 @@ mod common;
 use softgrain::stages::StageState;
 use softgrain::stages::compact::Compacted;
 
+const GRAIN: &str = "name: g\nseed: 1\nprepare:\n  layout: single\n  radius: 1.5e-3\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.3\nsolver:\n  tolerance: 1.0e-3\noutput:\n  every: 100\n  vtk: false\n";
+
 fn compress(tag: &str, sets: &[&str]) -> Compacted {
     let dir = common::temp_dir(tag);
-    let yaml = "name: g\nseed: 1\nprepare:\n  layout: single\n  radius: 1.5e-3\ndiscretise:\n  method: bpm\n  bpm:\n    particle_diameter: [1.6e-4, 2.6e-4]\n    f0: 100.0\ncompact:\n  wall_velocity: 0.2\n  final_strain: 0.3\nsolver:\n  tolerance: 1.0e-3\noutput:\n  every: 100\n  vtk: false\n";
-    let file = common::write(&dir, "g.yaml", yaml);
+    let file = common::write(&dir, "g.yaml", GRAIN);
     let state = common::run_to_state(&dir, &file, sets);
     let _ = std::fs::remove_dir_all(&dir);
     match state {
@@ -101,4 +102,19 @@ fn a_bpm_grain_yields_plastically_keeps_its_area_and_its_particles() {
         (internal / plate - 1.0).abs() < 0.2,
         "2 σ_c s/(1 - s) = {internal:.4e} Pa against F h/A = {plate:.4e} Pa"
     );
+}
+
+/// `stage.json` says where the compaction's time went, by part of the contact-dynamics
+/// step and of the recording (as for packings, `tests/bpm_packing.rs`).
+#[test]
+fn the_compact_stage_reports_its_time_by_part_of_the_step() {
+    let dir = common::temp_dir("bpm-grain-timings");
+    let file = common::write(&dir, "g.yaml", GRAIN);
+    common::run_to_state(&dir, &file, &["compact.final_strain=0.05"]);
+    common::check_timings(
+        &common::compact_stage_json(&dir, "g"),
+        &common::CD_TIMINGS,
+        &["step_solve", "step_detect"],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -107,7 +107,7 @@ pub struct StageCtx {
     /// Lets a BPM grain run above the compact stage's 0.5 t0 step limit: only the bench's
     /// stability map sets it, to find where the scheme really fails.
     pub beyond_step_limit: bool,
-    /// Wall seconds of this run by part of the stage's work (`note_time`), for `stage.json`.
+    /// Wall seconds of this run by part of the stage's work (`note_times`), for `stage.json`.
     timings: Mutex<Vec<(String, f64)>>,
 }
 
@@ -194,12 +194,13 @@ impl StageCtx {
         store::save(path, state)
     }
 
-    /// Notes the wall seconds this run of the stage spent on one part of its work;
-    /// `stage.json` lists them by name as `timings_s` (a run resumed from a snapshot counts
-    /// its own work only).
-    pub fn note_time(&self, part: &str, seconds: f64) {
+    /// Notes the wall seconds this run of the stage spent on each part of its steps (as
+    /// `step_<part>`) and on the rest of its work; `stage.json` lists them by name as
+    /// `timings_s` (a run resumed from a snapshot counts its own work only).
+    pub fn note_times(&self, step: &[(&str, f64)], rest: &[(&str, f64)]) {
         let mut t = self.timings.lock().expect("no panic while held");
-        t.push((part.to_string(), seconds));
+        t.extend(step.iter().map(|(k, s)| (format!("step_{k}"), *s)));
+        t.extend(rest.iter().map(|(k, s)| (k.to_string(), *s)));
     }
 
     /// Wall seconds spent on this stage: this run's and those of the runs it resumed.

@@ -235,11 +235,10 @@ pub fn run(
         record(p, ctx, &mut st).map_err(io)?;
     }
     rows += lap(&mut clock);
-    for (part, seconds) in st.scene.phases().named() {
-        ctx.note_time(&format!("step_{part}"), seconds);
-    }
-    ctx.note_time("rows", rows);
-    ctx.note_time("snapshots", snapshots);
+    ctx.note_times(
+        &st.scene.phases().named(),
+        &[("rows", rows), ("snapshots", snapshots)],
+    );
     bar.finish();
     let (done, summary) = finish(ctx, st)?;
     Ok((done, compaction::continued(summary, continued)))

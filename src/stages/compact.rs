@@ -10,8 +10,10 @@ use crate::cd::{LawTable, Scene};
 use crate::config::{Compact, Pipeline, defaults};
 use crate::geom::{V2, Wall};
 use crate::pipeline::StageCtx;
+use crate::timing::lap;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
+use std::time::Instant;
 
 /// One recorded row.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -179,11 +181,16 @@ pub fn run_bpm(
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
     let every = p.output.every.max(1);
+    // where the time goes, for stage.json (the step times its own parts, `Scene::phases`)
+    let (mut rows, mut snapshots) = (0.0, 0.0);
+    let mut clock = Instant::now();
     if st.rows.is_empty() {
         record(p, ctx, &mut st, cutoff).map_err(io)?;
     }
+    rows += lap(&mut clock);
     while (st.h0 / gap(&st)).ln() < c.final_strain {
         let r = st.scene.step().map_err(|e| e.to_string())?;
+        clock = Instant::now();
         let h = st.scene.params.dt;
         st.impulse_bottom += st.scene.wall_force[0].y * h;
         st.impulse_top -= st.scene.wall_force[st.top].y * h;
@@ -199,12 +206,14 @@ pub fn run_bpm(
             let strain = st.rows.last().map_or(0.0, |r| r.strain);
             bar.set((strain * 1e4) as u64, format!("ε = {strain:.3}"));
         }
+        rows += lap(&mut clock);
         if p.output.snapshot_every > 0 && st.scene.steps % p.output.snapshot_every == 0 {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
             // the rows so far, for a look at a long run while it goes on
             ctx.write("timeseries.csv", csv(&st.rows).as_bytes())
                 .map_err(io)?;
         }
+        snapshots += lap(&mut clock);
         if ctx.interrupted() {
             ctx.save_snapshot(&st, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
@@ -213,6 +222,11 @@ pub fn run_bpm(
     if st.since_record > 0 {
         record(p, ctx, &mut st, cutoff).map_err(io)?;
     }
+    rows += lap(&mut clock);
+    ctx.note_times(
+        &st.scene.phases().named(),
+        &[("rows", rows), ("snapshots", snapshots)],
+    );
     bar.finish();
     finish(ctx, st)
 }

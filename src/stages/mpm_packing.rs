@@ -304,16 +304,14 @@ pub fn compact(
         record(p, ctx, &mut st, mu).map_err(io)?;
     }
     rows += lap(&mut clock);
-    for (part, seconds) in st.pk.phases().named() {
-        ctx.note_time(&format!("step_{part}"), seconds);
-    }
-    for (part, seconds) in [
-        ("measures", measures),
-        ("rows", rows),
-        ("snapshots", snapshots),
-    ] {
-        ctx.note_time(part, seconds);
-    }
+    ctx.note_times(
+        &st.pk.phases().named(),
+        &[
+            ("measures", measures),
+            ("rows", rows),
+            ("snapshots", snapshots),
+        ],
+    );
     bar.finish();
     ctx.write("timeseries.csv", compaction::csv(&st.rows).as_bytes())
         .map_err(io)?;

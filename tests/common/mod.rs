@@ -111,6 +111,28 @@ pub fn lattice(r: f64, nx: usize, ny: usize) -> softgrain::cd::Bodies {
     bodies
 }
 
+/// The `timings_s` keys of a compaction by contact dynamics (BPM).
+pub const CD_TIMINGS: [&str; 6] = [
+    "step_detect",
+    "step_free",
+    "step_solve",
+    "step_finish",
+    "rows",
+    "snapshots",
+];
+
+/// The `stage.json` of the one compact case of pipeline `name` run into `dir`.
+pub fn compact_stage_json(dir: &Path, name: &str) -> serde_json::Value {
+    let cases: Vec<PathBuf> = std::fs::read_dir(dir.join(name).join("compact"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path().join("stage.json"))
+        .filter(|p| p.exists())
+        .collect();
+    assert_eq!(cases.len(), 1, "{cases:?}");
+    serde_json::from_slice(&std::fs::read(&cases[0]).unwrap()).unwrap()
+}
+
 /// Checks a compaction's `stage.json` (`stage`) says where its time went: `timings_s` has
 /// exactly the keys `parts`, none negative, those of `busy` above zero, and together no
 /// more than the stage's wall time nor less than half of it.
