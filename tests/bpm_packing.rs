@@ -235,13 +235,5 @@ fn from_a_dense_start_a_bpm_packing_shows_the_papers_trends_past_jamming() {
 /// together no more than the stage's wall time.
 #[test]
 fn the_compact_stage_reports_its_time_by_part_of_the_step() {
-    let dir = common::temp_dir("bpm-packing-timings");
-    let file = common::write(&dir, "p.yaml", PACK);
-    common::run_to_state(&dir, &file, &["compact.final_strain=0.05"]);
-    common::check_timings(
-        &common::compact_stage_json(&dir, "p"),
-        &common::CD_TIMINGS,
-        &["step_solve", "step_detect"],
-    );
-    let _ = std::fs::remove_dir_all(&dir);
+    common::check_cd_timings("bpm-packing-timings", "p", PACK);
 }

@@ -108,13 +108,5 @@ fn a_bpm_grain_yields_plastically_keeps_its_area_and_its_particles() {
 /// step and of the recording (as for packings, `tests/bpm_packing.rs`).
 #[test]
 fn the_compact_stage_reports_its_time_by_part_of_the_step() {
-    let dir = common::temp_dir("bpm-grain-timings");
-    let file = common::write(&dir, "g.yaml", GRAIN);
-    common::run_to_state(&dir, &file, &["compact.final_strain=0.05"]);
-    common::check_timings(
-        &common::compact_stage_json(&dir, "g"),
-        &common::CD_TIMINGS,
-        &["step_solve", "step_detect"],
-    );
-    let _ = std::fs::remove_dir_all(&dir);
+    common::check_cd_timings("bpm-grain-timings", "g", GRAIN);
 }

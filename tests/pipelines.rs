@@ -34,15 +34,9 @@ fn starts(tag: &str, file: &str, sets: &[&str], cases: usize) {
     assert!(o.status.success(), "{file}: {}", stderr(&o));
     // the cases' folders: OUT/<name>/compact/<case>/ (each pipeline is named as its file)
     let name = file.trim_end_matches(".yaml");
-    let stages: Vec<_> = std::fs::read_dir(dir.join(name).join("compact"))
-        .unwrap()
-        .flatten()
-        .map(|e| e.path().join("stage.json"))
-        .filter(|p| p.exists())
-        .collect();
+    let stages = common::compact_stage_jsons(&dir, name);
     assert_eq!(stages.len(), cases, "{file}: {stages:?}");
-    for s in stages {
-        let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&s).unwrap()).unwrap();
+    for (s, j) in stages {
         assert!(
             j["figures"]["steps"].as_u64().unwrap() > 0,
             "{}: {j}",

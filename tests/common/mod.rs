@@ -111,26 +111,40 @@ pub fn lattice(r: f64, nx: usize, ny: usize) -> softgrain::cd::Bodies {
     bodies
 }
 
-/// The `timings_s` keys of a compaction by contact dynamics (BPM).
-pub const CD_TIMINGS: [&str; 6] = [
-    "step_detect",
-    "step_free",
-    "step_solve",
-    "step_finish",
-    "rows",
-    "snapshots",
-];
-
-/// The `stage.json` of the one compact case of pipeline `name` run into `dir`.
-pub fn compact_stage_json(dir: &Path, name: &str) -> serde_json::Value {
-    let cases: Vec<PathBuf> = std::fs::read_dir(dir.join(name).join("compact"))
+/// The `stage.json` of every compact case of pipeline `name` run into `dir`
+/// (`DIR/<name>/compact/<case>/`), with its path.
+pub fn compact_stage_jsons(dir: &Path, name: &str) -> Vec<(PathBuf, serde_json::Value)> {
+    std::fs::read_dir(dir.join(name).join("compact"))
         .unwrap()
         .flatten()
         .map(|e| e.path().join("stage.json"))
         .filter(|p| p.exists())
-        .collect();
-    assert_eq!(cases.len(), 1, "{cases:?}");
-    serde_json::from_slice(&std::fs::read(&cases[0]).unwrap()).unwrap()
+        .map(|p| {
+            let j = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
+            (p, j)
+        })
+        .collect()
+}
+
+/// Runs the BPM pipeline `yaml` (named `name`) to ε = 0.05 in its own folder `tag` and
+/// checks that its one compact case says where its time went, by part of the
+/// contact-dynamics step and of the recording (`check_timings`).
+pub fn check_cd_timings(tag: &str, name: &str, yaml: &str) {
+    let dir = temp_dir(tag);
+    let file = write(&dir, &format!("{name}.yaml"), yaml);
+    run_to_state(&dir, &file, &["compact.final_strain=0.05"]);
+    let stages = compact_stage_jsons(&dir, name);
+    assert_eq!(stages.len(), 1, "{stages:?}");
+    let parts = [
+        "step_detect",
+        "step_free",
+        "step_solve",
+        "step_finish",
+        "rows",
+        "snapshots",
+    ];
+    check_timings(&stages[0].1, &parts, &["step_solve", "step_detect"]);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Checks a compaction's `stage.json` (`stage`) says where its time went: `timings_s` has
