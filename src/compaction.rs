@@ -18,8 +18,10 @@ use std::fmt::Write as _;
 /// the centre of the whole point with the same faces (`mpm::overlap`); 5: a surface-contact
 /// NLGS whose acceleration stalls goes on with plain sweeps (`NlgsParams::stall_window`); 6:
 /// the MPM NLGS sweeps its contacts grouped by grain pair and coloured (`mpm::colour`), and
-/// `PackingFigures` counts its sweeps.
-pub const PACKING_VERSION: u32 = 6;
+/// `PackingFigures` counts its sweeps; 7: the MPM coupling's residual tolerance is 1e-5
+/// instead of 1e-6 (`mpm::packing::COUPLING_TOLERANCE`; BPM packings are renamed with it
+/// and recompute to the same bits).
+pub const PACKING_VERSION: u32 = 7;
 
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.

@@ -26,6 +26,22 @@ compact:
   final_strain: 0.3
 ";
 
+/// `GRAIN` without its MPM half.
+const BPM_GRAIN: &str = "name: b
+seed: 1
+prepare:
+  layout: single
+  radius: 5.0e-3
+discretise:
+  method: bpm
+  bpm:
+    particle_diameter: [1.6e-4, 2.6e-4]
+    f0: 100.0
+compact:
+  wall_velocity: 0.2
+  final_strain: 0.3
+";
+
 const PACKING: &str = "name: p
 prepare:
   grains: 30
@@ -94,6 +110,18 @@ const CASES: &[(&str, &str, &str, &str)] = &[
         "final_strain: 0.3",
         "final_strain: 0.3\n  time_step: 1.0e-5",
         "g.yaml:19:3: compact.time_step = 1e-5: must be <= 0.5 t0",
+    ),
+    (
+        GRAIN,
+        "final_strain: 0.3",
+        "final_strain: 0.3\n  newton_tolerance: 1.0",
+        "g.yaml:19:3: compact.newton_tolerance = 1.0: must be in (0, 1)",
+    ),
+    (
+        BPM_GRAIN,
+        "  wall_velocity: 0.2",
+        "  newton_tolerance: 1.0e-5\n  wall_velocity: 0.2",
+        "b.yaml:12:3: compact.newton_tolerance = 1e-5: applies to MPM grains only",
     ),
     (
         GRAIN,
@@ -323,6 +351,8 @@ fn every_bad_input_exits_2_with_one_clear_message_before_any_work() {
             "g.yaml"
         } else if *base == PACKING {
             "p.yaml"
+        } else if *base == BPM_GRAIN {
+            "b.yaml"
         } else {
             "e.yaml"
         };

@@ -349,3 +349,31 @@ fn surface_contact_at_least_halves_the_overlap_of_a_small_mpm_packing() {
         }
     }
 }
+
+/// `compact.newton_tolerance` sets the coupling's residual tolerance (default 1e-5,
+/// `mpm::packing::COUPLING_TOLERANCE`): at 1e-6 the same packing takes more coupling
+/// iterations per step and, the box setting Φ, ends at the same packing fraction.
+#[test]
+fn the_newton_tolerance_key_sets_the_coupling_tolerance() {
+    let (loose, dir) = small_packing_with("mpm-packing-tol", 0.5, &[]);
+    let _ = std::fs::remove_dir_all(&dir);
+    let (tight, dir) = small_packing_with(
+        "mpm-packing-tol-tight",
+        0.5,
+        &["compact.newton_tolerance=1e-6"],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let per_step = |c: &PackingCompacted| c.figures.iterations_mean;
+    assert!(
+        per_step(&tight) > per_step(&loose),
+        "coupling iterations per step: {} at 1e-6, {} at the default",
+        per_step(&tight),
+        per_step(&loose)
+    );
+    let end = |c: &PackingCompacted| c.rows.last().map(|r| (r.strain, r.phi)).unwrap();
+    let ((e1, phi1), (e2, phi2)) = (end(&loose), end(&tight));
+    assert!(
+        (e1 - e2).abs() < 1e-9 && (phi1 - phi2).abs() < 2e-3,
+        "{e1} {phi1} / {e2} {phi2}"
+    );
+}

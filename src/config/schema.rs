@@ -390,6 +390,12 @@ pub struct Compact {
     /// Packings: packing fraction at ε = 0, which places the top wall (the paper: 0.65).
     #[serde(default = "initial_phi")]
     pub initial_phi: f64,
+    /// MPM: Newton's residual tolerance, relative to the step's force scale
+    /// (`mpm::solve::NewtonParams::tol_residual`): a packing's coupling iteration stops below
+    /// it (default `mpm::packing::COUPLING_TOLERANCE`, 1e-5), a single grain's Newton
+    /// iteration too (default 1e-6). Hashed only when set (`pipeline::plan`).
+    #[serde(default)]
+    pub newton_tolerance: Option<f64>,
     /// Contact-dynamics settings of this stage only, each key over `solver`'s: e.g.
     /// `{anderson: 8}` accelerates the compaction and leaves the deposit and the
     /// discretisation (and their checkpoints) as they are. BPM only: the MPM grain contact

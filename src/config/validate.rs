@@ -101,6 +101,19 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
         if let Some(dt) = c.time_step {
             positive("compact.time_step", dt)?;
         }
+        if let Some(t) = c.newton_tolerance {
+            if !(t > 0.0 && t < 1.0) {
+                fail("compact.newton_tolerance", t, "must be in (0, 1)")?;
+            }
+            let mpm = p.discretise.as_ref();
+            if !mpm.is_some_and(|d| d.method.to_vec().contains(&Method::Mpm)) {
+                fail(
+                    "compact.newton_tolerance",
+                    t,
+                    "applies to MPM grains only (discretise.method has no mpm)",
+                )?;
+            }
+        }
     }
     if let Some(a) = &p.analyse {
         analyse(a)?;

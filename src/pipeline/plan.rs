@@ -295,7 +295,13 @@ fn plan_scene(p: &Pipeline, source: usize, prefix: &str, nodes: &mut Vec<Node>) 
                 let mut compact = one_of(c, "friction", mu);
                 // the override is hashed merged into `solver` below, not here as well (a
                 // null key here would rename every existing compact node)
-                compact.as_object_mut().expect("a section").remove("solver");
+                let section = compact.as_object_mut().expect("a section");
+                section.remove("solver");
+                // added later: hashed only when set, so that the nodes of pipelines without
+                // it keep their names
+                if c.newton_tolerance.is_none() {
+                    section.remove("newton_tolerance");
+                }
                 let solver = match nodes[*up].method {
                     Some(Method::Bpm) => &bpm_solver,
                     _ => &solver,

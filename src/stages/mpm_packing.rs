@@ -23,7 +23,7 @@ use crate::io::vtk::{Data, Frame};
 use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::node_contact::{ContactKind, NlgsParams, Partner};
 use crate::mpm::overlap;
-use crate::mpm::packing::{Packing, PackingParams, TOP};
+use crate::mpm::packing::{COUPLING_TOLERANCE, Packing, PackingParams, TOP};
 use crate::mpm::shape::ShapeKind;
 use crate::mpm::solve::SolverParams;
 use crate::pipeline::StageCtx;
@@ -95,7 +95,12 @@ pub fn discretise(m: &Mpm, prep: &Prepared) -> Result<(MpmPackingGrains, String)
         .zip(&b.radius)
         .map(|(p, r)| p.y + r)
         .fold(0.0, f64::max);
-    let probe = packing(&g, &params(&g, 0.0, 0.0, 0.0, 1.0, None), &g.centres, top)?;
+    let probe = packing(
+        &g,
+        &params(&g, 0.0, 0.0, 0.0, 1.0, None, None),
+        &g.centres,
+        top,
+    )?;
     g.points = probe.point_count();
     let summary = format!(
         "{n} grains, {} material points, h_g = {:.3e} m (Δr/R = {} of the mean radius)",
@@ -111,12 +116,14 @@ fn params(
     gravity: f64,
     wall_velocity: f64,
     time_step: Option<f64>,
+    newton_tolerance: Option<f64>,
 ) -> PackingParams {
-    let solver = SolverParams {
+    let mut solver = SolverParams {
         shape: g.shape,
         bbar: g.bbar,
         ..SolverParams::default()
     };
+    solver.newton.tol_residual = newton_tolerance.unwrap_or(COUPLING_TOLERANCE);
     PackingParams {
         material: g.material,
         solver,
@@ -202,6 +209,7 @@ pub fn compact(
                     c.gravity,
                     c.wall_velocity,
                     c.time_step,
+                    c.newton_tolerance,
                 );
                 let pk = packing(g, &prm, &moved, geometry.h0)?;
                 Running {

@@ -80,6 +80,9 @@ fn params(g: &MpmGrain, c: &Compact) -> SingleGrainParams {
     p.wall_velocity = c.wall_velocity;
     p.final_strain = c.final_strain;
     p.wall_friction = c.wall_friction;
+    if let Some(t) = c.newton_tolerance {
+        p.solver.newton.tol_residual = t;
+    }
     p
 }
 
