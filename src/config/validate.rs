@@ -105,8 +105,11 @@ pub fn check(p: &Pipeline) -> Result<(), Failure> {
             if !(t > 0.0 && t < 1.0) {
                 fail("compact.newton_tolerance", t, "must be in (0, 1)")?;
             }
-            let mpm = p.discretise.as_ref();
-            if !mpm.is_some_and(|d| d.method.to_vec().contains(&Method::Mpm)) {
+            let has_mpm = p
+                .discretise
+                .as_ref()
+                .is_some_and(|d| d.method.to_vec().contains(&Method::Mpm));
+            if !has_mpm {
                 fail(
                     "compact.newton_tolerance",
                     t,
