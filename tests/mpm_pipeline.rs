@@ -4,20 +4,29 @@
 mod common;
 
 use softgrain::stages::StageState;
+use softgrain::stages::mpm_single::MpmCompacted;
+
+/// `pipelines/single-grain-mpm.yaml` with `sets`, run in its own folder `tag` up to the
+/// compact stage: its state and the folder.
+fn single_grain(tag: &str, sets: &[&str]) -> (MpmCompacted, std::path::PathBuf) {
+    let dir = common::temp_dir(tag);
+    let file = std::path::Path::new("pipelines/single-grain-mpm.yaml");
+    let StageState::MpmCompacted(c) = common::run_to_state(&dir, file, sets) else {
+        panic!("compact produced another state")
+    };
+    (c, dir)
+}
 
 #[test]
 fn the_mpm_grain_stage_matches_the_elastic_solution_and_writes_its_files() {
-    let dir = common::temp_dir("mpm-pipe");
-    let text = std::fs::read_to_string("pipelines/single-grain-mpm.yaml")
-        .unwrap()
-        .replace("resolution: 0.029", "resolution: 0.04")
-        .replace("final_strain: 0.3", "final_strain: 0.06");
-    let file = common::write(&dir, "m.yaml", &text);
-    let state = common::run_to_state(&dir, &file, &[]);
+    let (c, dir) = single_grain(
+        "mpm-pipe",
+        &[
+            "discretise.mpm.resolution=0.04",
+            "compact.final_strain=0.06",
+        ],
+    );
     let run = dir.join("single-grain-mpm");
-    let StageState::MpmCompacted(c) = state else {
-        panic!("compact produced another state")
-    };
     assert_eq!(c.small_strain.len(), 2);
     for s in &c.small_strain {
         // Johnson's solution within 5%; Eq. 13 over-predicts it (0.65-0.78 of it here)
@@ -47,19 +56,14 @@ fn the_mpm_grain_stage_matches_the_elastic_solution_and_writes_its_files() {
 #[test]
 fn the_newton_tolerance_key_reaches_the_single_grain() {
     let run = |tag: &str, sets: &[&str]| {
-        let dir = common::temp_dir(tag);
-        let file = std::path::Path::new("pipelines/single-grain-mpm.yaml");
         let mut all = vec![
             "discretise.mpm.resolution=0.06",
             "compact.final_strain=0.06",
             "output.vtk=false",
         ];
         all.extend_from_slice(sets);
-        let state = common::run_to_state(&dir, file, &all);
+        let (c, dir) = single_grain(tag, &all);
         let _ = std::fs::remove_dir_all(&dir);
-        let StageState::MpmCompacted(c) = state else {
-            panic!("compact produced another state")
-        };
         c
     };
     let default = run("mpm-tol-default", &[]);
