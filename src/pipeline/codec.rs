@@ -31,8 +31,10 @@ use serde::de::DeserializeOwned;
 /// factorisations and those whose consistent tangent was indefinite. Version 21: a
 /// packing's rows and figures record the deepest overlap of two MPM points
 /// (`point_overlap`). Version 22: an MPM packing's figures say where its deepest point pair
-/// was (`point_overlap_site`).
-pub const FORMAT_VERSION: u32 = 22;
+/// was (`point_overlap_site`). Version 23: the MPM NLGS settings a packing carries gain
+/// `pair_sweeps` (a frictionless surface-contact packing sweeps each grain pair on its own
+/// block first, which changes its results; frictional ones recompute to the same bits).
+pub const FORMAT_VERSION: u32 = 23;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())
