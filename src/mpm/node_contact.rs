@@ -697,7 +697,10 @@ impl NlgsParams {
 /// `NlgsParams::pair_sweeps` of the frictionless surface contact. Measured on
 /// `mpm-packing-small.yaml` without friction (16 grains to ε = 0.35, seeds 1, 2, 3, 7, 8, 9,
 /// 10): 3.0-4.5 times fewer sweeps, a third less NLGS time, 0.91 of the wall time (mean),
-/// σ(0.35) within the seeds' spread (ratio 0.96-1.14); 50 sweeps did no better than 20. With
+/// σ(0.35) within the seeds' spread (ratio 0.96-1.14); 50 sweeps did no better than 20. The
+/// deepest point pair comes out a few hundredths of a cell deeper, as with plain sweeps run
+/// to 1e-8: it is the converged contact problem's (plain sweeps at 1e-6 stop short along a
+/// pair's near-singular direction and leave its force spread over the pair's slots). With
 /// friction the pair's own sweeps, which need not converge (stick and slip trade between
 /// its contacts), made the solves stall: 41 stopped against 2 (seed 7, 20 sweeps), so
 /// frictional packings sweep plainly (`bench/README-packings.md`, "Sweeping a grain pair on
