@@ -762,13 +762,16 @@ pub fn nlgs(
     let (mut best, mut window_start) = (f64::INFINITY, f64::INFINITY);
     let mut residual = f64::INFINITY;
     let mut parts = Vec::new();
+    let mut block = Block::default();
     for sweep in 1..=params.max_sweeps {
         if accelerate {
             anderson.begin(forces(contacts));
         }
         let (mut change, mut total) = (0.0, 0.0);
         for (bounds, disjoint) in schedule.colours() {
-            for (dc, dt) in sweep_colour(contacts, slots, bounds, disjoint, params, &mut parts) {
+            for (dc, dt) in sweep_colour(
+                contacts, slots, bounds, disjoint, params, &mut block, &mut parts,
+            ) {
                 change += dc;
                 total += dt;
             }
@@ -836,6 +839,7 @@ fn sweep_colour<'p>(
     bounds: &[usize],
     disjoint: bool,
     params: NlgsParams,
+    block: &mut Block,
     parts: &'p mut Vec<(f64, f64)>,
 ) -> &'p [(f64, f64)] {
     parts.clear();
@@ -847,14 +851,16 @@ fn sweep_colour<'p>(
             .map(|own| Pair::take(own, slots))
             .collect();
         work.par_iter_mut()
-            .map(|p| p.sweep(params.pair_sweeps, params.tol))
+            .map_init(Block::default, |b, p| {
+                p.sweep(params.pair_sweeps, params.tol, b)
+            })
             .collect_into_vec(parts);
         work.into_iter().for_each(|pair| pair.give_back(slots));
     } else {
         // one pair at a time, its slots given back before the next takes its own
         for own in pairs(contacts, bounds) {
             let mut pair = Pair::take(own, slots);
-            parts.push(pair.sweep(params.pair_sweeps, params.tol));
+            parts.push(pair.sweep(params.pair_sweeps, params.tol, block));
             pair.give_back(slots);
         }
     }
@@ -872,6 +878,15 @@ fn pairs<'c>(
         rest = tail;
         own
     })
+}
+
+/// A pair visit's buffers (`Pair::sweep`), kept from visit to visit so that a sweep does
+/// not allocate: the pair's cross-compliances, relative displacements and starting forces.
+#[derive(Default)]
+struct Block {
+    w: Vec<Matrix2<f64>>,
+    d: Vec<Vector2<f64>>,
+    start: Vec<Vector2<f64>>,
 }
 
 /// A grain pair's contacts with its grains' slots, taken out of the packing's so that the
@@ -898,7 +913,7 @@ impl<'c> Pair<'c> {
     /// forces by at most `tol` of theirs) on its own Delassus block, each contact's change
     /// moving the pair's relative displacements alone; the visit's changes then reach all
     /// slots of its grains. The fixed point is the plain NLGS's.
-    fn sweep(&mut self, inner: usize, tol: f64) -> (f64, f64) {
+    fn sweep(&mut self, inner: usize, tol: f64, block: &mut Block) -> (f64, f64) {
         let mut sides = Sides {
             a: &mut self.a,
             b: self.b.as_mut(),
@@ -918,14 +933,17 @@ impl<'c> Pair<'c> {
         }
         // w[i k + j]: contact i's relative displacement per unit force on contact j
         let cs = &mut *self.contacts;
-        let mut w = Vec::with_capacity(k * k);
+        let Block { w, d, start } = block;
+        w.clear();
         for ci in cs.iter() {
             for cj in cs.iter() {
                 w.push(sides.cross(ci, cj));
             }
         }
-        let mut d: Vec<Vector2<f64>> = cs.iter().map(|c| sides.disp(c)).collect();
-        let start: Vec<Vector2<f64>> = cs.iter().map(|c| c.force()).collect();
+        d.clear();
+        d.extend(cs.iter().map(|c| sides.disp(c)));
+        start.clear();
+        start.extend(cs.iter().map(|c| c.force()));
         for _ in 0..inner {
             let (mut change, mut total) = (0.0, 0.0);
             for i in 0..k {
@@ -943,7 +961,7 @@ impl<'c> Pair<'c> {
             }
         }
         let mut part = (0.0, 0.0);
-        for (c, f0) in cs.iter().zip(start) {
+        for (c, f0) in cs.iter().zip(start.iter()) {
             let df = c.force() - f0;
             if df != Vector2::zeros() {
                 sides.push(c, df);
@@ -1008,11 +1026,7 @@ impl<'s> Sides<'s> {
 
     /// The contact's Delassus block: the sum of its two slots' diagonal compliances.
     fn diagonal(&self, c: &NodeContact) -> Matrix2<f64> {
-        let w = self.a.block(c.slot_a, c.slot_a);
-        match &self.b {
-            Some(b) => w + b.block(c.slot_b, c.slot_b),
-            None => w,
-        }
+        self.cross(c, c)
     }
 
     /// The relative displacement of contact `c`'s slots per unit force on contact `e`'s
