@@ -68,7 +68,7 @@ fn main() {
                 .expect("begin");
             s.evaluate_residual(params, material, &grain.points, grain.dt, 0)
                 .expect("residual");
-            s.assemble_stiffness(params, material, &grain.points, grain.dt);
+            s.assemble_stiffness(params, material, grain.dt);
             s
         };
         let solver = prepared();
@@ -76,8 +76,7 @@ fn main() {
         // Factorise and solve; returns the seconds taken and the solution.
         let direct_solve = |s: &mut Solver| {
             let t = Instant::now();
-            s.factorize(params, material, &grain.points, grain.dt, 0)
-                .expect("factor");
+            s.factorize(params, material, grain.dt, 0).expect("factor");
             let mut x = rhs.clone();
             s.solve(&mut x, 1, 0).expect("solve");
             (t.elapsed().as_secs_f64(), x)

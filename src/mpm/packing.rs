@@ -288,6 +288,8 @@ struct GrainWork {
     /// Contact forces at the active nodes.
     fc: Vec<f64>,
     rhs: Vec<f64>,
+    /// Unit loads along each slot's pattern, 2 per slot (`grain_free`).
+    loads: Vec<f64>,
     scale: f64,
     rel: f64,
     factored: bool,
@@ -779,9 +781,8 @@ impl Packing {
                 .grains
                 .par_iter_mut()
                 .zip(ws.slots.par_iter_mut())
-                .zip(grains.par_iter())
-                .map(|((w, s), pts)| -> Result<(usize, usize), MpmError> {
-                    let consistent = grain_free(w, s, pts, p, dt, step, tol)?;
+                .map(|(w, s)| -> Result<(usize, usize), MpmError> {
+                    let consistent = grain_free(w, s, p, dt, step, tol)?;
                     Ok((
                         usize::from(consistent.is_some()),
                         usize::from(consistent == Some(false)),
@@ -936,7 +937,6 @@ impl Packing {
 fn grain_free(
     w: &mut GrainWork,
     s: &mut Slots,
-    pts: &Points,
     p: &PackingParams,
     dt: f64,
     step: u64,
@@ -949,8 +949,8 @@ fn grain_free(
     }
     let mut consistent = None;
     if !(converged && w.factored) {
-        w.solver.assemble_stiffness(&p.solver, &p.material, pts, dt);
-        consistent = Some(w.solver.factorize(&p.solver, &p.material, pts, dt, step)?);
+        w.solver.assemble_stiffness(&p.solver, &p.material, dt);
+        consistent = Some(w.solver.factorize(&p.solver, &p.material, dt, step)?);
         w.factored = true;
     }
     let n = w.solver.residual_vector().len();
@@ -966,21 +966,21 @@ fn grain_free(
     s.patterns.project(&rhs, &mut s.disp);
     w.rhs = rhs;
     if consistent.is_some() && !s.is_empty() {
-        // unit loads along each slot's pattern, then their displacements projected back
+        // unit loads along each slot's pattern; their displacements projected back,
+        // `Pᵀ K⁻¹ P`
         let m = 2 * s.len();
-        let mut cols = vec![0.0; n * m];
+        let loads = &mut w.loads;
+        loads.clear();
+        loads.resize(n * m, 0.0);
         for k in 0..s.len() {
             for &(i, wt) in s.entries(k) {
-                cols[(2 * k) * n + 2 * i] = wt;
-                cols[(2 * k + 1) * n + 2 * i + 1] = wt;
+                loads[(2 * k) * n + 2 * i] = wt;
+                loads[(2 * k + 1) * n + 2 * i + 1] = wt;
             }
         }
-        w.solver.solve(&mut cols, m, step)?;
         s.compliance.clear();
-        for col in 0..m {
-            s.patterns
-                .project(&cols[col * n..(col + 1) * n], &mut s.compliance);
-        }
+        s.compliance.resize(m * m, 0.0);
+        w.solver.compliance(loads, m, &mut s.compliance, step)?;
     }
     Ok(consistent)
 }

@@ -121,11 +121,27 @@ pub struct Solver {
     contacts: Vec<NodeContact>,
     prev_active: Vec<(usize, usize)>,
     gap: Vec<f64>,
-    dbk: Vec<Matrix3x2<f64>>,
-    bk: Vec<Matrix3x2<f64>>,
-    hk: Vec<Vector2<f64>>,
-    /// `σ ∇S` of the point being assembled, per group node.
-    sg: Vec<Vector2<f64>>,
+    /// The assembly's per-node terms of the point being assembled (`stiffness`).
+    terms: Vec<NodeTerms>,
+    /// One B-bar group's blocks, summed over its points before they go into `sys`.
+    group_blocks: Vec<Matrix2<f64>>,
+}
+
+/// The factors of one point's stiffness at one node of its group (`Solver::stiffness`).
+#[derive(Clone, Copy, Default)]
+struct NodeTerms {
+    /// `B̄` and `v D B̄`.
+    b: Matrix3x2<f64>,
+    db: Matrix3x2<f64>,
+    /// `∇S`, `σ ∇S` and `h = d̄ - ∇S`.
+    g: Vector2<f64>,
+    sg: Vector2<f64>,
+    h: Vector2<f64>,
+    /// `v σ ∇S`, `½ v h` and `v (½ σ ∇S + ¼ tr σ h)`: the geometric block of the pair
+    /// (k, l) is `(g_k · sv_l) I + sg_k hv_lᵀ + h_k q_lᵀ`.
+    sv: Vector2<f64>,
+    hv: Vector2<f64>,
+    q: Vector2<f64>,
 }
 
 fn vec2(u: &[f64], i: usize) -> Vector2<f64> {
@@ -245,13 +261,13 @@ impl Solver {
             if it == tol.max_iterations {
                 break;
             }
-            self.stiffness(points, material, c1, true);
+            self.stiffness(material, c1, true);
             if self.solve_increment().is_err() {
                 // The geometric and stress-dependent parts of the tangent of a pre-stressed
                 // grain can make it indefinite (supports inactive, or stresses of order μ
                 // at large strain): retry this iteration with the initial elastic tangent
                 // (a modified Newton step).
-                self.stiffness(points, material, c1, false);
+                self.stiffness(material, c1, false);
                 self.solve_increment()
                     .map_err(|reason| MpmError::LinearSolve { step, reason })?;
             }
@@ -337,14 +353,8 @@ impl Solver {
 
     /// Assembles the effective stiffness (consistent tangent) at the iterate of the last
     /// `evaluate_residual`, for `factorize` or `solve_iterative`.
-    pub fn assemble_stiffness(
-        &mut self,
-        params: &SolverParams,
-        material: &Material,
-        points: &Points,
-        dt: f64,
-    ) {
-        self.stiffness(points, material, params.newmark.mass_factor(dt), true);
+    pub fn assemble_stiffness(&mut self, params: &SolverParams, material: &Material, dt: f64) {
+        self.stiffness(material, params.newmark.mass_factor(dt), true);
     }
 
     /// Factorises the stiffness of the last `assemble_stiffness`; if the consistent
@@ -355,7 +365,6 @@ impl Solver {
         &mut self,
         params: &SolverParams,
         material: &Material,
-        points: &Points,
         dt: f64,
         step: u64,
     ) -> Result<bool, MpmError> {
@@ -363,11 +372,25 @@ impl Solver {
         if self.sys.factorize(&self.fixed).is_ok() {
             return Ok(true);
         }
-        self.stiffness(points, material, params.newmark.mass_factor(dt), false);
+        self.stiffness(material, params.newmark.mass_factor(dt), false);
         self.sys
             .factorize(&self.fixed)
             .map_err(|reason| MpmError::LinearSolve { step, reason })?;
         Ok(false)
+    }
+
+    /// `out = Bᵀ K⁻¹ B` (`cols × cols`) for `cols` columns of `b` of length
+    /// `2 × nodes().len()`, with the last factorisation.
+    pub fn compliance(
+        &mut self,
+        b: &[f64],
+        cols: usize,
+        out: &mut [f64],
+        step: u64,
+    ) -> Result<(), MpmError> {
+        self.sys
+            .inverse_gram(b, cols, out)
+            .map_err(|reason| MpmError::LinearSolve { step, reason })
     }
 
     /// Solves `K X = B` in place for `cols` columns of length `2 × nodes().len()`.
@@ -667,44 +690,57 @@ impl Solver {
     /// `consistent = false`, `D` is the initial elastic matrix and the geometric part is
     /// left out, which is always positive definite. Only a step that solves needs it: a
     /// converged iterate, or a grain the coupling leaves alone, skips it.
-    fn stiffness(&mut self, points: &Points, material: &Material, c1: f64, consistent: bool) {
+    fn stiffness(&mut self, material: &Material, c1: f64, consistent: bool) {
         let elastic = material.elastic_matrix();
         self.sys.zero();
-        for p in 0..points.len() {
-            let (g, off) = (self.conn.pt_grp[p], self.conn.pt_off[p]);
+        // group by group: its points' blocks summed first, then added to `sys` once
+        for g in 0..self.conn.grp_off.len() - 1 {
             let m = self.conn.grp_off[g + 1] - self.conn.grp_off[g];
-            let v = self.trial_vol[p];
-            let d = if consistent { self.tangent[p] } else { elastic };
-            let sm = self.trial_stress[p].matrix();
-            self.bk.clear();
-            self.dbk.clear();
-            self.hk.clear();
-            self.sg.clear();
-            for k in 0..m {
-                let (bm, h) = self.bbar(p, k);
-                self.dbk.push(d * bm * v);
-                self.bk.push(bm);
-                self.hk.push(h);
-                self.sg.push(sm * self.pt_g[off + k]);
-            }
             let blk = &self.grp_blk[self.grp_blk_off[g]..][..m * m];
-            for k in 0..m {
-                let (gk, sgk, hk) = (self.pt_g[off + k], self.sg[k], self.hk[k]);
-                for l in 0..m {
-                    let block = blk[k * m + l];
-                    if block == usize::MAX {
-                        continue;
+            self.group_blocks.clear();
+            self.group_blocks.resize(m * m, Matrix2::zeros());
+            let pts = &self.conn.order[self.conn.grp_pts_off[g]..self.conn.grp_pts_off[g + 1]];
+            for &p in pts {
+                let off = self.conn.pt_off[p];
+                let v = self.trial_vol[p];
+                let d = if consistent { self.tangent[p] } else { elastic };
+                let sm = self.trial_stress[p].matrix();
+                let tr = sm.trace();
+                self.terms.clear();
+                for k in 0..m {
+                    let (b, h) = self.bbar(p, k);
+                    let g = self.pt_g[off + k];
+                    let sg = sm * g;
+                    self.terms.push(NodeTerms {
+                        b,
+                        db: d * b * v,
+                        g,
+                        sg,
+                        h,
+                        sv: sg * v,
+                        hv: h * (0.5 * v),
+                        q: (sg * 0.5 + h * (0.25 * tr)) * v,
+                    });
+                }
+                for (k, tk) in self.terms.iter().enumerate() {
+                    for (l, tl) in self.terms.iter().enumerate() {
+                        if blk[k * m + l] == usize::MAX {
+                            continue;
+                        }
+                        let mut kij = tk.b.transpose() * tl.db;
+                        if consistent {
+                            // Geometric stiffness tr(G_k σ G_lᵀ), G = e ⊗ ∇S + ½ (e·h) I.
+                            kij += Matrix2::identity() * tk.g.dot(&tl.sv)
+                                + tk.sg * tl.hv.transpose()
+                                + tk.h * tl.q.transpose();
+                        }
+                        self.group_blocks[k * m + l] += kij;
                     }
-                    let mut kij = self.bk[k].transpose() * self.dbk[l];
-                    if consistent {
-                        // Geometric stiffness tr(G_k σ G_lᵀ), G = e ⊗ ∇S + ½ (e·h) I.
-                        let (sgl, hl) = (self.sg[l], self.hk[l]);
-                        kij += (Matrix2::identity() * gk.dot(&sgl)
-                            + (sgk * hl.transpose() + hk * sgl.transpose()) * 0.5
-                            + hk * hl.transpose() * (0.25 * sm.trace()))
-                            * v;
-                    }
-                    self.sys.add_block(block, &kij);
+                }
+            }
+            for (&block, kij) in blk.iter().zip(&self.group_blocks) {
+                if block != usize::MAX {
+                    self.sys.add_block(block, kij);
                 }
             }
         }
@@ -835,7 +871,7 @@ mod tests {
         s.add_increment(&u);
         s.evaluate_residual(&params, &material, &pts, dt, 0)
             .unwrap();
-        s.assemble_stiffness(&params, &material, &pts, dt);
+        s.assemble_stiffness(&params, &material, dt);
         let mut kd = vec![0.0; dir.len()];
         s.sys.matvec(&dir, &mut kd);
         if whole {

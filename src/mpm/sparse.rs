@@ -3,13 +3,17 @@
 //! is unchanged (METHODS §3.3 steps 5–6).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::supernodal::{
+    SupernodalLltRef, factorize_supernodal_numeric_llt, factorize_supernodal_numeric_llt_scratch,
+};
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
     factorize_symbolic_cholesky,
 };
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Par, Side};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::{Accum, Conj, Par, Side};
 use nalgebra::{Matrix2, Vector2};
 
 /// Lower-triangular block storage: block `(I, J)` with `I <= J` holds
@@ -24,10 +28,12 @@ pub struct SymSystem {
     row_idx: Vec<usize>,
     /// For each CSC value: `4 * block + 2 * r + c`.
     src: Vec<usize>,
-    val: Vec<f64>,
     /// AMD ordering and supernodal structure (faer's simplicial heuristic picked the
     /// slower path for these 2D grid matrices: 54 % of the run time).
     symbolic: Option<SymbolicCholesky<usize>>,
+    /// The lower triangle in the AMD order, filled straight from the blocks (faer would
+    /// otherwise permute the matrix at every factorisation).
+    permuted: Option<Permuted>,
     factor: Vec<f64>,
     factor_mem: Option<MemBuffer>,
     solve_mem: Option<MemBuffer>,
@@ -35,8 +41,89 @@ pub struct SymSystem {
     solve_cols: usize,
     /// Whether `factor` holds the factorisation of the current values.
     factored: bool,
+    /// `inverse_gram`'s permuted and forward-solved columns.
+    gram: Vec<f64>,
     /// Whether the last `set_pattern` had to redo the symbolic analysis.
     pub new_symbolic: bool,
+}
+
+/// Clears the upper halves of the AVX registers (`vzeroupper`). faer's triangular
+/// product returns without it, and the SSE code compiled for the baseline target that runs
+/// next on the thread then pays a transition penalty on every vector instruction: after it
+/// the NLGS ran 1.4-2.1 times and the stiffness assembly 2.4 times slower (16 grains; a
+/// dummy product of the same size in the old build, same bits: NLGS 6.5 s, 3.7 s without
+/// the product, 3.9 s with the product and this clear; `bench/README-packings.md`).
+fn clear_upper_state() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx")]
+        fn zero_upper() {
+            std::arch::x86_64::_mm256_zeroupper();
+        }
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above)
+            unsafe { zero_upper() }
+        }
+    }
+}
+
+/// The lower triangle of `Q K Qᵀ` (`Q` the symbolic factorisation's fill-reducing order):
+/// its pattern, and for each value the block entry (`4 * block + 2 * r + c`) and the
+/// unpermuted DOFs `(row, col)` it comes from.
+struct Permuted {
+    pattern: SymbolicSparseColMat<usize>,
+    src: Vec<usize>,
+    dofs: Vec<(usize, usize)>,
+    val: Vec<f64>,
+}
+
+impl Permuted {
+    fn new(
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        src: &[usize],
+        symbolic: &SymbolicCholesky<usize>,
+    ) -> Permuted {
+        let n = col_ptr.len() - 1;
+        let inv: Vec<usize> = match symbolic.perm() {
+            Some(perm) => perm.arrays().1.to_vec(),
+            None => (0..n).collect(),
+        };
+        // entry k of column c, row r ≥ c, lands at (max, min) of (inv[r], inv[c])
+        let at = |k: usize, c: usize| {
+            let (r2, c2) = (inv[row_idx[k]], inv[c]);
+            (r2.max(c2), r2.min(c2))
+        };
+        let mut ptr = vec![0; n + 1];
+        for c in 0..n {
+            for k in col_ptr[c]..col_ptr[c + 1] {
+                ptr[at(k, c).1 + 1] += 1;
+            }
+        }
+        for c in 0..n {
+            ptr[c + 1] += ptr[c];
+        }
+        let nnz = row_idx.len();
+        let mut next = ptr.clone();
+        let (mut rows, mut psrc, mut dofs) = (vec![0; nnz], vec![0; nnz], vec![(0, 0); nnz]);
+        for c in 0..n {
+            for k in col_ptr[c]..col_ptr[c + 1] {
+                let (r2, c2) = at(k, c);
+                let slot = next[c2];
+                next[c2] += 1;
+                rows[slot] = r2;
+                psrc[slot] = src[k];
+                dofs[slot] = (row_idx[k], c);
+            }
+        }
+        let pattern = SymbolicSparseColMat::new_unsorted_checked(n, n, ptr, None, rows);
+        Permuted {
+            pattern,
+            src: psrc,
+            dofs,
+            val: vec![0.0; nnz],
+        }
+    }
 }
 
 impl SymSystem {
@@ -84,11 +171,10 @@ impl SymSystem {
                 self.col_ptr.push(self.row_idx.len());
             }
         }
-        self.val.clear();
-        self.val.resize(self.row_idx.len(), 0.0);
         self.new_symbolic = old_ptr != self.col_ptr || old_idx != self.row_idx;
         if self.new_symbolic {
             self.symbolic = None;
+            self.permuted = None;
         }
         self.factored = false;
     }
@@ -160,24 +246,13 @@ impl SymSystem {
     /// Numeric Cholesky factorisation of `K` with the DOFs in `fixed` eliminated (kept for
     /// `solve_factored` until the next `factorize`).
     pub fn factorize(&mut self, fixed: &[bool]) -> Result<(), String> {
-        for (k, s) in self.src.iter().enumerate() {
-            let (b, r, c) = (s / 4, (s % 4) / 2, s % 2);
-            self.val[k] = self.blocks[b][(r, c)];
-        }
-        for c in 0..2 * self.n_nodes {
-            for k in self.col_ptr[c]..self.col_ptr[c + 1] {
-                let r = self.row_idx[k];
-                if r != c && (fixed[r] || fixed[c]) {
-                    self.val[k] = 0.0;
-                }
-            }
-        }
-        let n = 2 * self.n_nodes;
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         // Sequential: the systems are small (a few thousand DOFs) and the machine shared;
         // packings solve their grains in parallel instead.
         let par = Par::Seq;
         if self.symbolic.is_none() {
+            let n = 2 * self.n_nodes;
+            let sym =
+                SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
             let params = CholeskySymbolicParams {
                 supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
                 ..Default::default()
@@ -185,31 +260,121 @@ impl SymSystem {
             let symbolic =
                 factorize_symbolic_cholesky(sym, Side::Lower, SymmetricOrdering::Amd, params)
                     .map_err(|e| format!("{e:?}"))?;
+            let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
+                return Err("simplicial symbolic factorisation".into());
+            };
             self.factor.clear();
             self.factor.resize(symbolic.len_val(), 0.0);
-            self.factor_mem = Some(MemBuffer::new(
-                symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-            ));
+            self.factor_mem = Some(MemBuffer::new(factorize_supernodal_numeric_llt_scratch::<
+                usize,
+                f64,
+            >(
+                supernodal, par, Default::default()
+            )));
             self.solve_mem = None;
             self.solve_cols = 0;
+            self.permuted = Some(Permuted::new(
+                &self.col_ptr,
+                &self.row_idx,
+                &self.src,
+                &symbolic,
+            ));
             self.symbolic = Some(symbolic);
         }
-        let (Some(symbolic), Some(fmem)) = (&self.symbolic, &mut self.factor_mem) else {
+        let (Some(symbolic), Some(fmem), Some(p)) =
+            (&self.symbolic, &mut self.factor_mem, &mut self.permuted)
+        else {
             return Err("no symbolic factorisation".into());
         };
+        let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
+            return Err("simplicial symbolic factorisation".into());
+        };
+        for ((v, &s), &(r, c)) in p.val.iter_mut().zip(&p.src).zip(&p.dofs) {
+            *v = if r != c && (fixed[r] || fixed[c]) {
+                0.0
+            } else {
+                self.blocks[s / 4][((s % 4) / 2, s % 2)]
+            };
+        }
         self.factored = false;
-        symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut self.factor,
-                SparseColMatRef::new(sym, &self.val),
-                Side::Lower,
-                Default::default(),
-                par,
-                MemStack::new(fmem),
-                Default::default(),
-            )
-            .map_err(|e| format!("{e:?}"))?;
+        factorize_supernodal_numeric_llt::<usize, f64>(
+            &mut self.factor,
+            SparseColMatRef::new(p.pattern.as_ref(), &p.val),
+            Default::default(),
+            supernodal,
+            par,
+            MemStack::new(fmem),
+            Default::default(),
+        )
+        .map_err(|e| format!("{e:?}"))?;
         self.factored = true;
+        Ok(())
+    }
+
+    /// `out = Bᵀ K⁻¹ B` (`cols × cols`, column-major) for `cols` columns of `b` (column
+    /// after column) with the last factorisation: with `K = Qᵀ L Lᵀ Q` (`Q` the
+    /// fill-reducing order), `Y = L⁻¹ Q B` by the forward solve alone and `out = Yᵀ Y`, its
+    /// lower half by one product, mirrored, so `out` is symmetric to the bit. Half the
+    /// triangular work of `solve_factored`.
+    pub fn inverse_gram(&mut self, b: &[f64], cols: usize, out: &mut [f64]) -> Result<(), String> {
+        let n = 2 * self.n_nodes;
+        let Some(symbolic) = self.symbolic.as_ref().filter(|_| self.factored) else {
+            return Err("solve before factorisation".into());
+        };
+        if b.len() != n * cols || out.len() != cols * cols {
+            return Err(format!(
+                "{} and {} values for {cols} columns of {n}",
+                b.len(),
+                out.len()
+            ));
+        }
+        let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
+            return Err("simplicial symbolic factorisation".into());
+        };
+        let par = Par::Seq;
+        if self.solve_mem.is_none() || self.solve_cols < cols {
+            self.solve_mem = Some(MemBuffer::new(
+                symbolic.solve_in_place_scratch::<f64>(cols, par),
+            ));
+            self.solve_cols = cols;
+        }
+        let y = &mut self.gram;
+        y.clear();
+        match symbolic.perm() {
+            Some(perm) => {
+                let fwd = perm.arrays().0;
+                for col in b.chunks_exact(n) {
+                    y.extend(fwd.iter().map(|&i| col[i]));
+                }
+            }
+            None => y.extend_from_slice(b),
+        }
+        let mut y = faer::MatMut::from_column_major_slice_mut(y, n, cols);
+        let smem = self.solve_mem.as_mut().expect("allocated above");
+        SupernodalLltRef::new(supernodal, &self.factor).l_solve_with_conj(
+            Conj::No,
+            y.as_mut(),
+            par,
+            MemStack::new(smem),
+        );
+        let mut w = faer::MatMut::from_column_major_slice_mut(out, cols, cols);
+        triangular::matmul(
+            w.as_mut(),
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            y.as_ref().transpose(),
+            BlockStructure::Rectangular,
+            y.as_ref(),
+            BlockStructure::Rectangular,
+            1.0,
+            par,
+        );
+        clear_upper_state();
+        for j in 1..cols {
+            for i in 0..j {
+                w[(i, j)] = w[(j, i)];
+            }
+        }
         Ok(())
     }
 
@@ -372,5 +537,66 @@ mod tests {
         s.set_pattern(3, &mut pairs);
         assert!(!s.new_symbolic);
         assert!(s.solve_factored(&mut [0.0; 6], 1).is_err());
+    }
+
+    #[test]
+    fn the_inverse_gram_is_b_transpose_times_the_solves() {
+        // 6 × 6 grid of nodes, each coupled to its 8 neighbours: AMD reorders it and the
+        // factor has several supernodes
+        let side = 6;
+        let nodes = side * side;
+        let id = |x: usize, y: usize| y * side + x;
+        let mut pairs = Vec::new();
+        for y in 0..side {
+            for x in 0..side {
+                for (dx, dy) in [(1, 0), (0, 1), (1, 1)] {
+                    if x + dx < side && y + dy < side {
+                        pairs.push((id(x, y), id(x + dx, y + dy)));
+                    }
+                }
+                if x > 0 && y + 1 < side {
+                    let (a, b) = (id(x, y), id(x - 1, y + 1));
+                    pairs.push((a.min(b), a.max(b)));
+                }
+            }
+        }
+        let springs = pairs.clone();
+        let mut s = SymSystem::default();
+        s.set_pattern(nodes, &mut pairs);
+        let k = Matrix2::new(2.0, 0.5, 0.5, 1.0);
+        for &(i, j) in &springs {
+            s.add_block(s.lower_block(i, i), &k);
+            s.add_block(s.lower_block(j, j), &k);
+            s.add_block(s.lower_block(j, i), &(-k));
+        }
+        for i in 0..nodes {
+            s.add_diag(i, 0.1 + 0.01 * i as f64);
+        }
+        s.factorize(&vec![false; 2 * nodes]).unwrap();
+        let (n, cols) = (2 * nodes, 5);
+        let b: Vec<f64> = (0..n * cols)
+            .map(|k| {
+                if k % 7 == 0 {
+                    1.0 + (k % 5) as f64
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut x = b.clone();
+        s.solve_factored(&mut x, cols).unwrap();
+        let mut gram = vec![0.0; cols * cols];
+        s.inverse_gram(&b, cols, &mut gram).unwrap();
+        for i in 0..cols {
+            for j in 0..cols {
+                let expected: f64 = (0..n).map(|r| b[i * n + r] * x[j * n + r]).sum();
+                let got = gram[j * cols + i];
+                assert!(
+                    (got - expected).abs() < 1e-12 * expected.abs().max(1.0),
+                    "{got} {expected}"
+                );
+                assert_eq!(got, gram[i * cols + j]);
+            }
+        }
     }
 }

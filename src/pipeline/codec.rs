@@ -34,7 +34,10 @@ use serde::de::DeserializeOwned;
 /// was (`point_overlap_site`). Version 23: the MPM NLGS settings a packing carries gain
 /// `pair_sweeps` (a frictionless surface-contact packing sweeps each grain pair on its own
 /// block first, which changes its results; frictional ones recompute to the same bits).
-pub const FORMAT_VERSION: u32 = 23;
+/// Version 24 changes no layout: the MPM stiffness is summed by B-bar group and a packing's
+/// contact compliance comes from the forward solve and a Gram product
+/// (`mpm::sparse::SymSystem::inverse_gram`), which moves MPM results at round-off.
+pub const FORMAT_VERSION: u32 = 24;
 
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     bincode::serde::encode_to_vec(value, bincode::config::standard()).map_err(|e| e.to_string())
