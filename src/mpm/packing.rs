@@ -288,8 +288,6 @@ struct GrainWork {
     /// Contact forces at the active nodes.
     fc: Vec<f64>,
     rhs: Vec<f64>,
-    /// Unit loads along each slot's pattern, 2 per slot (`grain_free`).
-    loads: Vec<f64>,
     scale: f64,
     rel: f64,
     factored: bool,
@@ -969,9 +967,7 @@ fn grain_free(
         // unit loads along each slot's pattern; their displacements projected back,
         // `Pᵀ K⁻¹ P`
         let m = 2 * s.len();
-        let loads = &mut w.loads;
-        loads.clear();
-        loads.resize(n * m, 0.0);
+        let mut loads = vec![0.0; n * m];
         for k in 0..s.len() {
             for &(i, wt) in s.entries(k) {
                 loads[(2 * k) * n + 2 * i] = wt;
@@ -980,7 +976,7 @@ fn grain_free(
         }
         s.compliance.clear();
         s.compliance.resize(m * m, 0.0);
-        w.solver.compliance(loads, m, &mut s.compliance, step)?;
+        w.solver.compliance(&loads, m, &mut s.compliance, step)?;
     }
     Ok(consistent)
 }

@@ -41,8 +41,6 @@ pub struct SymSystem {
     solve_cols: usize,
     /// Whether `factor` holds the factorisation of the current values.
     factored: bool,
-    /// `inverse_gram`'s permuted and forward-solved columns.
-    gram: Vec<f64>,
     /// Whether the last `set_pattern` had to redo the symbolic analysis.
     pub new_symbolic: bool,
 }
@@ -68,12 +66,12 @@ fn clear_upper_state() {
 }
 
 /// The lower triangle of `Q K Qᵀ` (`Q` the symbolic factorisation's fill-reducing order):
-/// its pattern, and for each value the block entry (`4 * block + 2 * r + c`) and the
-/// unpermuted DOFs `(row, col)` it comes from.
+/// its pattern, for each value the block entry it comes from (`4 * block + 2 * r + c`), and
+/// `fwd[i]`, the DOF at position `i` of the order.
 struct Permuted {
     pattern: SymbolicSparseColMat<usize>,
     src: Vec<usize>,
-    dofs: Vec<(usize, usize)>,
+    fwd: Vec<usize>,
     val: Vec<f64>,
 }
 
@@ -85,9 +83,9 @@ impl Permuted {
         symbolic: &SymbolicCholesky<usize>,
     ) -> Permuted {
         let n = col_ptr.len() - 1;
-        let inv: Vec<usize> = match symbolic.perm() {
-            Some(perm) => perm.arrays().1.to_vec(),
-            None => (0..n).collect(),
+        let (fwd, inv): (Vec<usize>, Vec<usize>) = match symbolic.perm() {
+            Some(perm) => (perm.arrays().0.to_vec(), perm.arrays().1.to_vec()),
+            None => ((0..n).collect(), (0..n).collect()),
         };
         // entry k of column c, row r ≥ c, lands at (max, min) of (inv[r], inv[c])
         let at = |k: usize, c: usize| {
@@ -105,22 +103,22 @@ impl Permuted {
         }
         let nnz = row_idx.len();
         let mut next = ptr.clone();
-        let (mut rows, mut psrc, mut dofs) = (vec![0; nnz], vec![0; nnz], vec![(0, 0); nnz]);
+        let (mut rows, mut psrc) = (vec![0; nnz], vec![0; nnz]);
         for c in 0..n {
-            for k in col_ptr[c]..col_ptr[c + 1] {
+            let span = col_ptr[c]..col_ptr[c + 1];
+            for (k, &s) in span.clone().zip(&src[span]) {
                 let (r2, c2) = at(k, c);
                 let slot = next[c2];
                 next[c2] += 1;
                 rows[slot] = r2;
-                psrc[slot] = src[k];
-                dofs[slot] = (row_idx[k], c);
+                psrc[slot] = s;
             }
         }
         let pattern = SymbolicSparseColMat::new_unsorted_checked(n, n, ptr, None, rows);
         Permuted {
             pattern,
             src: psrc,
-            dofs,
+            fwd,
             val: vec![0.0; nnz],
         }
     }
@@ -289,12 +287,20 @@ impl SymSystem {
         let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
             return Err("simplicial symbolic factorisation".into());
         };
-        for ((v, &s), &(r, c)) in p.val.iter_mut().zip(&p.src).zip(&p.dofs) {
-            *v = if r != c && (fixed[r] || fixed[c]) {
-                0.0
-            } else {
-                self.blocks[s / 4][((s % 4) / 2, s % 2)]
-            };
+        for (v, &s) in p.val.iter_mut().zip(&p.src) {
+            *v = self.blocks[s / 4][((s % 4) / 2, s % 2)];
+        }
+        if fixed.iter().any(|&f| f) {
+            // a fixed DOF's row and column reduced to the diagonal
+            let ptr = p.pattern.col_ptr();
+            for (c2, &c) in p.fwd.iter().enumerate() {
+                for k in ptr[c2]..ptr[c2 + 1] {
+                    let r = p.fwd[p.pattern.row_idx()[k]];
+                    if r != c && (fixed[r] || fixed[c]) {
+                        p.val[k] = 0.0;
+                    }
+                }
+            }
         }
         self.factored = false;
         factorize_supernodal_numeric_llt::<usize, f64>(
@@ -338,8 +344,9 @@ impl SymSystem {
             ));
             self.solve_cols = cols;
         }
-        let y = &mut self.gram;
-        y.clear();
+        // (allocated per call: kept per grain with the load columns, they cost a 100-grain
+        // packing a fifth more memory)
+        let mut y = Vec::with_capacity(n * cols);
         match symbolic.perm() {
             Some(perm) => {
                 let fwd = perm.arrays().0;
@@ -349,7 +356,7 @@ impl SymSystem {
             }
             None => y.extend_from_slice(b),
         }
-        let mut y = faer::MatMut::from_column_major_slice_mut(y, n, cols);
+        let mut y = faer::MatMut::from_column_major_slice_mut(&mut y, n, cols);
         let smem = self.solve_mem.as_mut().expect("allocated above");
         SupernodalLltRef::new(supernodal, &self.factor).l_solve_with_conj(
             Conj::No,
