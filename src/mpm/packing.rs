@@ -11,7 +11,8 @@
 //! 3. Otherwise each grain whose residual is not converged factorises its effective
 //!    stiffness; every grain with contact slots solves for its free increment
 //!    `K^{-1} R` and (after a new factorisation) the condensed compliance `[K^{-1}]_cc`
-//!    by unit loads at its slot DOFs (parallel).
+//!    from unit loads along its slots' patterns, by the forward solve and a Gram product
+//!    (`SymSystem::inverse_gram`; parallel).
 //! 4. NLGS over all contacts on the linearised relation `u_c = u_c^k + K^{-1}(R + f_c)`.
 //! 5. Each grain takes `u += K^{-1}(R + f_c)` with the new forces (parallel).
 //!
@@ -964,8 +965,7 @@ fn grain_free(
     s.patterns.project(&rhs, &mut s.disp);
     w.rhs = rhs;
     if consistent.is_some() && !s.is_empty() {
-        // unit loads along each slot's pattern; their displacements projected back,
-        // `Pᵀ K⁻¹ P`
+        // unit loads along each slot's pattern, and from them the compliance `Pᵀ K⁻¹ P`
         let m = 2 * s.len();
         let mut loads = vec![0.0; n * m];
         for k in 0..s.len() {
