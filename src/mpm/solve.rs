@@ -380,16 +380,18 @@ impl Solver {
     }
 
     /// `out = Bᵀ K⁻¹ B` (`cols × cols`) for `cols` columns of `b` of length
-    /// `2 × nodes().len()`, with the last factorisation.
+    /// `2 × nodes().len()`, with the last factorisation (`y`: scratch, see
+    /// `SymSystem::inverse_gram`).
     pub fn compliance(
         &mut self,
         b: &[f64],
         cols: usize,
         out: &mut [f64],
+        y: &mut Vec<f64>,
         step: u64,
     ) -> Result<(), MpmError> {
         self.sys
-            .inverse_gram(b, cols, out)
+            .inverse_gram(b, cols, out, y)
             .map_err(|reason| MpmError::LinearSolve { step, reason })
     }
 

@@ -6,7 +6,8 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::supernodal::{
-    SupernodalLltRef, factorize_supernodal_numeric_llt, factorize_supernodal_numeric_llt_scratch,
+    SupernodalLltRef, SymbolicSupernodalCholesky, factorize_supernodal_numeric_llt,
+    factorize_supernodal_numeric_llt_scratch,
 };
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
@@ -43,6 +44,33 @@ pub struct SymSystem {
     factored: bool,
     /// Whether the last `set_pattern` had to redo the symbolic analysis.
     pub new_symbolic: bool,
+}
+
+/// The supernodal structure of `symbolic` (`factorize` forces it).
+fn supernodal(
+    symbolic: &SymbolicCholesky<usize>,
+) -> Result<&SymbolicSupernodalCholesky<usize>, String> {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Supernodal(s) => Ok(s),
+        SymbolicCholeskyRaw::Simplicial(_) => Err("simplicial symbolic factorisation".into()),
+    }
+}
+
+/// The solves' scratch `mem`, grown to `cols` right-hand sides (`sized` holds how many it
+/// takes).
+fn solve_stack<'m>(
+    mem: &'m mut Option<MemBuffer>,
+    sized: &mut usize,
+    symbolic: &SymbolicCholesky<usize>,
+    cols: usize,
+) -> &'m mut MemBuffer {
+    if mem.is_none() || *sized < cols {
+        *sized = cols;
+        *mem = Some(MemBuffer::new(
+            symbolic.solve_in_place_scratch::<f64>(cols, Par::Seq),
+        ));
+    }
+    mem.as_mut().expect("allocated above")
 }
 
 /// Clears the upper halves of the AVX registers (`vzeroupper`). faer's triangular
@@ -258,9 +286,7 @@ impl SymSystem {
             let symbolic =
                 factorize_symbolic_cholesky(sym, Side::Lower, SymmetricOrdering::Amd, params)
                     .map_err(|e| format!("{e:?}"))?;
-            let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
-                return Err("simplicial symbolic factorisation".into());
-            };
+            let supernodal = supernodal(&symbolic)?;
             self.factor.clear();
             self.factor.resize(symbolic.len_val(), 0.0);
             self.factor_mem = Some(MemBuffer::new(factorize_supernodal_numeric_llt_scratch::<
@@ -284,9 +310,7 @@ impl SymSystem {
         else {
             return Err("no symbolic factorisation".into());
         };
-        let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
-            return Err("simplicial symbolic factorisation".into());
-        };
+        let supernodal = supernodal(symbolic)?;
         for (v, &s) in p.val.iter_mut().zip(&p.src) {
             *v = self.blocks[s / 4][((s % 4) / 2, s % 2)];
         }
@@ -321,8 +345,15 @@ impl SymSystem {
     /// after column) with the last factorisation: with `K = Qᵀ L Lᵀ Q` (`Q` the
     /// fill-reducing order), `Y = L⁻¹ Q B` by the forward solve alone and `out = Yᵀ Y`, its
     /// lower half by one product, mirrored, so `out` is symmetric to the bit. Half the
-    /// triangular work of `solve_factored`.
-    pub fn inverse_gram(&mut self, b: &[f64], cols: usize, out: &mut [f64]) -> Result<(), String> {
+    /// triangular work of `solve_factored`. `y` is scratch for `Y` (the caller's, so that
+    /// the step allocates it once per thread, not per grain and iteration).
+    pub fn inverse_gram(
+        &mut self,
+        b: &[f64],
+        cols: usize,
+        out: &mut [f64],
+        y: &mut Vec<f64>,
+    ) -> Result<(), String> {
         let n = 2 * self.n_nodes;
         let Some(symbolic) = self.symbolic.as_ref().filter(|_| self.factored) else {
             return Err("solve before factorisation".into());
@@ -334,19 +365,9 @@ impl SymSystem {
                 out.len()
             ));
         }
-        let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
-            return Err("simplicial symbolic factorisation".into());
-        };
+        let supernodal = supernodal(symbolic)?;
         let par = Par::Seq;
-        if self.solve_mem.is_none() || self.solve_cols < cols {
-            self.solve_mem = Some(MemBuffer::new(
-                symbolic.solve_in_place_scratch::<f64>(cols, par),
-            ));
-            self.solve_cols = cols;
-        }
-        // (allocated per call: kept per grain with the load columns, they cost a 100-grain
-        // packing a fifth more memory)
-        let mut y = Vec::with_capacity(n * cols);
+        y.clear();
         match symbolic.perm() {
             Some(perm) => {
                 let fwd = perm.arrays().0;
@@ -356,8 +377,8 @@ impl SymSystem {
             }
             None => y.extend_from_slice(b),
         }
-        let mut y = faer::MatMut::from_column_major_slice_mut(&mut y, n, cols);
-        let smem = self.solve_mem.as_mut().expect("allocated above");
+        let mut y = faer::MatMut::from_column_major_slice_mut(y, n, cols);
+        let smem = solve_stack(&mut self.solve_mem, &mut self.solve_cols, symbolic, cols);
         SupernodalLltRef::new(supernodal, &self.factor).l_solve_with_conj(
             Conj::No,
             y.as_mut(),
@@ -396,13 +417,7 @@ impl SymSystem {
             return Err(format!("{} values for {cols} columns of {n}", rhs.len()));
         }
         let par = Par::Seq;
-        if self.solve_mem.is_none() || self.solve_cols < cols {
-            self.solve_mem = Some(MemBuffer::new(
-                symbolic.solve_in_place_scratch::<f64>(cols, par),
-            ));
-            self.solve_cols = cols;
-        }
-        let smem = self.solve_mem.as_mut().expect("allocated above");
+        let smem = solve_stack(&mut self.solve_mem, &mut self.solve_cols, symbolic, cols);
         LltRef::new(symbolic, &self.factor).solve_in_place_with_conj(
             Conj::No,
             faer::MatMut::from_column_major_slice_mut(rhs, n, cols),
@@ -593,7 +608,8 @@ mod tests {
         let mut x = b.clone();
         s.solve_factored(&mut x, cols).unwrap();
         let mut gram = vec![0.0; cols * cols];
-        s.inverse_gram(&b, cols, &mut gram).unwrap();
+        s.inverse_gram(&b, cols, &mut gram, &mut Vec::new())
+            .unwrap();
         for i in 0..cols {
             for j in 0..cols {
                 let expected: f64 = (0..n).map(|r| b[i * n + r] * x[j * n + r]).sum();
