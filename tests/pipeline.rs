@@ -529,3 +529,66 @@ fn progress_goes_to_the_log_as_lines_when_stderr_is_not_a_terminal() {
     assert!(!stderr(&quiet).contains("% after"), "{}", stderr(&quiet));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Independent cases (a method's two frictions) run side by side on two threads
+/// (`pipeline::run`'s waves) and give, byte for byte, the checkpoints that one thread gives
+/// running them one after the other; every case is computed and reported.
+#[test]
+fn cases_run_side_by_side_give_the_bits_of_one_after_the_other() {
+    let cases = [
+        (
+            "quick",
+            vec![
+                "prepare.grains=12",
+                "compact.initial_phi=0.5",
+                "compact.final_strain=0.05",
+            ],
+        ),
+        (
+            "mpm-packing-small",
+            vec!["prepare.grains=8", "compact.final_strain=0.01"],
+        ),
+    ];
+    for (name, sets) in cases {
+        let dir = temp_dir(&format!("side-{name}"));
+        let path = format!("{}/pipelines/{name}.yaml", env!("CARGO_MANIFEST_DIR"));
+        let mut runs = Vec::new();
+        for jobs in ["1", "2"] {
+            let out = dir.join(format!("jobs{jobs}"));
+            let mut args = vec!["pipeline", "run", &path, "--out", out.to_str().unwrap()];
+            args.extend([
+                "--jobs",
+                jobs,
+                "--until",
+                "compact",
+                "--set",
+                "output.vtk=false",
+            ]);
+            for s in &sets {
+                args.extend(["--set", s]);
+            }
+            let o = softgrain(&args);
+            assert!(o.status.success(), "{name} --jobs {jobs}: {}", stderr(&o));
+            let done = stdout(&o)
+                .lines()
+                .filter(|l| l.starts_with("compact") && l.contains("done in"))
+                .count();
+            assert_eq!(done, 2, "{name} --jobs {jobs}: {}", stdout(&o));
+            runs.push(checkpoints(&out.join(name)));
+        }
+        assert_eq!(runs[0].len(), runs[1].len());
+        assert_eq!(
+            runs[0].len(),
+            4,
+            "{name}: prepare, discretise, two compactions"
+        );
+        for (a, b) in runs[0].iter().zip(&runs[1]) {
+            assert_eq!(a.file_name(), b.file_name());
+            assert!(
+                std::fs::read(a).unwrap() == std::fs::read(b).unwrap(),
+                "{name}: {} differs between one and two threads",
+                a.display()
+            );
+        }
+    }
+}

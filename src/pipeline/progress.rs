@@ -1,10 +1,11 @@
 //! Progress of long loops: an indicatif bar on a terminal; when stderr is a file or a pipe
 //! (a run under nohup or a batch scheduler), plain lines at every 10% and at least every
-//! five minutes, which a log keeps; nothing in quiet mode.
+//! five minutes, which a log keeps; nothing in quiet mode. The bars of stages running side
+//! by side (independent cases, `super::run`) share the terminal through one `MultiProgress`.
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 /// At most this long between two log lines while the loop advances.
@@ -33,11 +34,14 @@ struct Log {
 impl Progress {
     /// A bar counting to `total` (e.g. simulated time in µs, or steps), labelled `label`.
     pub fn new(label: &str, total: u64, quiet: bool) -> Self {
-        let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+        static BARS: OnceLock<MultiProgress> = OnceLock::new();
         let to_log = !quiet && !std::io::stderr().is_terminal();
-        if quiet || to_log {
-            bar.set_draw_target(ProgressDrawTarget::hidden());
-        }
+        let bar = if quiet || to_log {
+            ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::hidden())
+        } else {
+            BARS.get_or_init(MultiProgress::new)
+                .add(ProgressBar::new(total))
+        };
         bar.set_style(
             ProgressStyle::with_template(
                 "{prefix:>22} [{bar:30}] {percent:>3}% {elapsed_precise} eta {eta} {msg}",
