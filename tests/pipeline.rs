@@ -590,5 +590,6 @@ fn cases_run_side_by_side_give_the_bits_of_one_after_the_other() {
                 a.display()
             );
         }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -3,10 +3,11 @@
 //!
 //! The graph is run in waves: each wave is the nodes whose upstream nodes are done, which
 //! depend on nothing else of the wave (a deposit's discretisations, a discretisation's
-//! compaction cases). A wave's nodes are spawned on the run's thread pool together, so their
-//! parallel loops share its threads: on two threads, two MPM compaction cases, whose steps
-//! gain only about 1.3-1.4 times from a second thread, finish sooner side by side than one
-//! after the other. A stage's results do not depend on the threads it gets (the same bits,
+//! compaction cases). A wave's nodes run side by side on the run's thread pool, as many at
+//! once as it has threads, so their parallel loops share its threads: on two threads, two MPM compaction cases, whose steps
+//! gain far less than twice from a second thread, finish sooner side by side than one
+//! after the other (100 grains, both frictions: 394 s against 534 s, README "MPM
+//! packings"). A stage's results do not depend on the threads it gets (the same bits,
 //! `tests/pipeline.rs`).
 
 pub mod codec;
@@ -24,7 +25,7 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// How a run failed; the CLI maps `Input` to exit status 2 and the rest to 1.
@@ -295,24 +296,20 @@ pub fn run(loaded: &Loaded, opts: &RunOptions) -> Result<Vec<(Node, Outcome)>, R
                 _ => todo.push(k),
             }
         }
-        // Independent nodes run side by side, at most as many as the pool has threads
-        // (`run_batch`); after a batch with a failed node the wave stops there.
+        // Independent nodes run side by side (`run_side_by_side`); none is started after
+        // one has failed.
+        let results = run_side_by_side(loaded, opts, &nodes, &root, &ckpt_dir, &states, &todo);
         let mut failed = None;
-        for batch in todo.chunks(rayon::current_num_threads().max(1)) {
-            let results = run_batch(loaded, opts, &nodes, &root, &ckpt_dir, &states, batch);
-            for (&k, result) in batch.iter().zip(results) {
-                match result {
-                    Ok((state, outcome)) => {
-                        states[k] = Some(state);
-                        outcomes.push((k, nodes[k].clone(), outcome));
-                    }
-                    Err(e) => {
-                        failed.get_or_insert(e);
-                    }
+        for (&k, result) in todo.iter().zip(results) {
+            match result {
+                Some(Ok((state, outcome))) => {
+                    states[k] = Some(state);
+                    outcomes.push((k, nodes[k].clone(), outcome));
                 }
-            }
-            if failed.is_some() {
-                break;
+                Some(Err(e)) => {
+                    failed.get_or_insert(e);
+                }
+                None => {}
             }
         }
         if let Some(e) = failed {
@@ -372,50 +369,53 @@ fn cached(
 /// A computed node's state and outcome, or why it failed.
 type Computed = Result<(StageState, Outcome), RunError>;
 
-/// Runs the nodes `batch` (independent, their upstream states in `states`) side by side on
+/// Runs the nodes `todo` (independent, their upstream states in `states`) side by side on
 /// the run's thread pool, each one's parallel loops on whichever threads are free: two
 /// compaction cases on two threads finish sooner than one after the other, each on both
-/// (module doc). No more nodes than threads: a thread waiting inside one node's parallel
-/// loop could otherwise take up a whole queued node and hold the first until it ends. A
-/// failed node leaves the others to finish and save; each node's result, in order.
-fn run_batch(
+/// (module doc). As many runners as threads take the nodes in order, each the next as it
+/// ends one (a node spawned on the pool for itself could be taken up by a thread waiting
+/// inside another node's parallel loop, which would then wait for it). After a failure no
+/// runner starts another node, and the running ones finish and save. Each node's result
+/// in order, `None` for those not started.
+fn run_side_by_side(
     loaded: &Loaded,
     opts: &RunOptions,
     nodes: &[Node],
     root: &Path,
     ckpt_dir: &Path,
     states: &[Option<StageState>],
-    batch: &[usize],
-) -> Vec<Computed> {
-    let slots: Vec<Mutex<Option<Computed>>> = batch.iter().map(|_| Mutex::new(None)).collect();
-    let side_by_side = batch.len() > 1;
+    todo: &[usize],
+) -> Vec<Option<Computed>> {
+    let slots: Vec<Mutex<Option<Computed>>> = todo.iter().map(|_| Mutex::new(None)).collect();
+    let (next, stop) = (AtomicUsize::new(0), AtomicBool::new(false));
+    let runners = rayon::current_num_threads().clamp(1, todo.len().max(1));
     rayon::scope(|scope| {
-        for (&k, slot) in batch.iter().zip(&slots) {
-            scope.spawn(move |_| {
-                let upstream: Vec<&StageState> = nodes[k]
-                    .upstream
-                    .iter()
-                    .map(|&u| states[u].as_ref().expect("upstream runs first"))
-                    .collect();
-                let r = compute(loaded, opts, nodes, root, ckpt_dir, k, &upstream);
-                // (on Ctrl-C every case stops and says so at the end)
-                if let Err(e) = &r
-                    && side_by_side
-                    && !matches!(e, RunError::Interrupted { .. })
-                {
-                    eprintln!("{e}; the cases beside it go on");
+        for _ in 0..runners {
+            scope.spawn(|_| {
+                while !stop.load(Ordering::Relaxed) {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&k) = todo.get(i) else { break };
+                    let upstream: Vec<&StageState> = nodes[k]
+                        .upstream
+                        .iter()
+                        .map(|&u| states[u].as_ref().expect("upstream runs first"))
+                        .collect();
+                    let r = compute(loaded, opts, nodes, root, ckpt_dir, k, &upstream);
+                    if let Err(e) = &r {
+                        stop.store(true, Ordering::Relaxed);
+                        // (on Ctrl-C every case stops and says so at the end)
+                        if todo.len() > 1 && !matches!(e, RunError::Interrupted { .. }) {
+                            eprintln!("{e}; the cases running beside it go on");
+                        }
+                    }
+                    *slots[i].lock().expect("no panic while held") = Some(r);
                 }
-                *slot.lock().expect("no panic while held") = Some(r);
             });
         }
     });
     slots
         .into_iter()
-        .map(|s| {
-            s.into_inner()
-                .expect("no panic while held")
-                .expect("every spawned node sets its result")
-        })
+        .map(|s| s.into_inner().expect("no panic while held"))
         .collect()
 }
 
