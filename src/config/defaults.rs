@@ -49,8 +49,8 @@ pub const BPM_RELAX_STEPS: u64 = 400;
 /// ε = 0.45 (the grains pass into each other under 0.16 MPa); with this one 0.10-0.15% by
 /// the measure of session 33 (which counted clipped surface points at their own centre),
 /// and the walls carry about 1 MPa, the grains losing the area the box's Φ asks for
-/// (about 0.8 MPa of mean stress), at 1.4 times the node contact's cost without friction
-/// (README, "MPM packings"; decision of session 33).
+/// (about 0.8 MPa of mean stress), at 1.4 times the node contact's CPU time without friction
+/// in session 31's builds (README, "MPM packings"; decision of session 33).
 pub const MPM_CONTACT: super::schema::ContactKind = super::schema::ContactKind::Surface;
 
 // ---- compact ----
