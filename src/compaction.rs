@@ -20,8 +20,10 @@ use std::fmt::Write as _;
 /// the MPM NLGS sweeps its contacts grouped by grain pair and coloured (`mpm::colour`), and
 /// `PackingFigures` counts its sweeps; 7: the MPM coupling's residual tolerance is 1e-5
 /// instead of 1e-6 (`mpm::packing::COUPLING_TOLERANCE`; BPM packings are renamed with it
-/// and recompute to the same bits).
-pub const PACKING_VERSION: u32 = 7;
+/// and recompute to the same bits); 8: an MPM packing keeps its contact compliance in single
+/// precision (`mpm::node_contact::Slots::compliance`), which moves its results at round-off
+/// (BPM packings are renamed with it and recompute to the same bits).
+pub const PACKING_VERSION: u32 = 8;
 
 /// The confining box: floor at y = 0, side walls at x = 0 and x = `width`, top wall at
 /// `h0` at ε = 0 moving down.

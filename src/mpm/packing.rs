@@ -937,6 +937,8 @@ impl Packing {
 struct LoadColumns {
     loads: Vec<f64>,
     solved: Vec<f64>,
+    /// The compliance in double precision, before it is rounded into the slots'.
+    gram: Vec<f64>,
 }
 
 /// Factorises grain `w` if it needs it, then sets its slots' free displacement
@@ -987,10 +989,12 @@ fn grain_free(
                 loads[(2 * k + 1) * n + 2 * i + 1] = wt;
             }
         }
-        s.compliance.clear();
-        s.compliance.resize(m * m, 0.0);
+        cols.gram.clear();
+        cols.gram.resize(m * m, 0.0);
         w.solver
-            .compliance(loads, m, &mut s.compliance, &mut cols.solved, step)?;
+            .compliance(loads, m, &mut cols.gram, &mut cols.solved, step)?;
+        s.compliance.clear();
+        s.compliance.extend(cols.gram.iter().map(|&c| c as f32));
     }
     Ok(consistent)
 }
