@@ -211,9 +211,10 @@ pub struct Slots {
     /// double precision, kept in single. A sweep pushes each contact's change through its
     /// grains' whole compliance columns, so it reads every grain's compliance once: on the
     /// paper's 300 grains an estimated 20-35 MB in double precision (40-60 slots a grain),
-    /// against a 32 MB last-level cache here. Single precision halves that traffic. Its rounding (6e-8 of an entry) is far below the NLGS tolerance (1e-6 of
-    /// Σ|f|) and the coupling's (1e-5), and the local solves and the pushes read the same
-    /// rounded, symmetric operator. Measured on the last 156 steps of the 300-grain μ = 0.5
+    /// against a 32 MB last-level cache here. Single precision halves that traffic. Its
+    /// rounding (6e-8 of an entry) is far below the NLGS tolerance (1e-6 of Σ|f|) and the
+    /// coupling's (1e-5), and the local solves and the pushes read the same rounded,
+    /// symmetric operator. Measured on the last 156 steps of the 300-grain μ = 0.5
     /// case resumed from one snapshot: 957 s against 1,298 s, the NLGS 595 s against 941 s
     /// for the same sweeps, Φ, Z and σ at ε = 0.45 the same to three digits
     /// (`bench/README-packings.md`, "The compliance in single precision").
