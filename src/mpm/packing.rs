@@ -930,9 +930,10 @@ impl Packing {
 }
 
 /// Scratch of `grain_free`'s compliance, one per thread of the parallel loop: the unit load
-/// columns and their forward solve (`n × 2 slots` each; kept per grain they cost a 100-grain
-/// packing a fifth more memory, allocated per grain and iteration they were an allocation in
-/// the time step's inner loop).
+/// columns and their forward solve (`n × 2 slots` each), and the compliance in double
+/// precision before it is rounded (`2 slots` square). Kept per grain the first two cost a
+/// 100-grain packing a fifth more memory; allocated per grain and iteration they were an
+/// allocation in the time step's inner loop.
 #[derive(Default)]
 struct LoadColumns {
     loads: Vec<f64>,

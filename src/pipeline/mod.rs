@@ -4,10 +4,10 @@
 //! The graph is run in waves: each wave is the nodes whose upstream nodes are done, which
 //! depend on nothing else of the wave (a deposit's discretisations, a discretisation's
 //! compaction cases). A wave's nodes run side by side on the run's thread pool, as many at
-//! once as it has threads, so their parallel loops share its threads: on two threads, two MPM compaction cases, whose steps
-//! gain far less than twice from a second thread, finish sooner side by side than one
-//! after the other (100 grains, both frictions: 394 s against 534 s, README "MPM
-//! packings"). A stage's results do not depend on the threads it gets (the same bits,
+//! once as it has threads, so their parallel loops share its threads: on two threads, two
+//! MPM compaction cases, whose steps gain far less than twice from a second thread, finish
+//! sooner side by side than one after the other (100 grains, both frictions: 394 s against
+//! 534 s; 300 grains: 81 min against 37 + 69 min alone; README "MPM packings"). A stage's results do not depend on the threads it gets (the same bits,
 //! `tests/pipeline.rs`).
 
 pub mod codec;
