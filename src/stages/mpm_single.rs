@@ -9,6 +9,7 @@ use crate::mpm::driver::{PointState, Row, RunStats, SingleGrain, SingleGrainPara
 use crate::mpm::material::{Material, MaterialKind};
 use crate::mpm::shape::ShapeKind;
 use crate::pipeline::StageCtx;
+use crate::timing::lap;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 
@@ -138,9 +139,13 @@ pub fn compact(
     let io = |e: std::io::Error| format!("writing output in {}: {e}", ctx.dir.display());
     let bar = ctx.progress("compact", (c.final_strain * 1e4) as u64);
     let every = p.output.every_for(Method::Mpm).max(1);
+    // this run's wall seconds by part (`stage.json`'s `timings_s`)
+    let mut clock = std::time::Instant::now();
+    let (mut stepping, mut frames, mut snapshots) = (0.0, 0.0, 0.0);
     if run.0.stats.steps == 0 && p.output.vtk {
         write_frame(ctx, &mut run).map_err(io)?;
     }
+    frames += lap(&mut clock);
     while !run.0.is_done() {
         run.0.step().map_err(|e| e.to_string())?;
         let steps = run.0.stats.steps;
@@ -148,12 +153,15 @@ pub fn compact(
             (run.0.strain() * 1e4) as u64,
             format!("ε = {:.3}", run.0.strain()),
         );
+        stepping += lap(&mut clock);
         if p.output.vtk && steps % every == 0 {
             write_frame(ctx, &mut run).map_err(io)?;
         }
+        frames += lap(&mut clock);
         if p.output.snapshot_every > 0 && steps % p.output.snapshot_every == 0 {
             ctx.save_snapshot(&run, &bar).map_err(io)?;
         }
+        snapshots += lap(&mut clock);
         if ctx.interrupted() {
             ctx.save_snapshot(&run, &bar).map_err(io)?;
             return Err(crate::pipeline::INTERRUPTED.into());
@@ -162,6 +170,7 @@ pub fn compact(
     if p.output.vtk && run.0.stats.steps % every != 0 {
         write_frame(ctx, &mut run).map_err(io)?;
     }
+    frames += lap(&mut clock);
     bar.finish();
     let mut result = run.0.result(false);
     result.stats.wall_seconds = 0.0;
@@ -175,6 +184,15 @@ pub fn compact(
     }
     ctx.write("timeseries.csv", csv.as_bytes()).map_err(io)?;
     let small = small_strain(&result.rows, g);
+    ctx.note_times(
+        &[],
+        &[
+            ("steps", stepping),
+            ("frames", frames),
+            ("snapshots", snapshots),
+            ("rows", lap(&mut clock)),
+        ],
+    );
     let s = &result.stats;
     let at = |k: usize| {
         small
