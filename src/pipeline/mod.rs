@@ -7,7 +7,8 @@
 //! once as it has threads, so their parallel loops share its threads: on two threads, two
 //! MPM compaction cases, whose steps gain far less than twice from a second thread, finish
 //! sooner side by side than one after the other (100 grains, both frictions: 394 s against
-//! 534 s; 300 grains: 81 min against 37 + 69 min alone; README "MPM packings"). A stage's results do not depend on the threads it gets (the same bits,
+//! 534 s; 300 grains: 81 min against 37 + 69 min alone, 76 min with a later build; README
+//! "MPM packings"). A stage's results do not depend on the threads it gets (the same bits,
 //! `tests/pipeline.rs`).
 
 pub mod codec;
